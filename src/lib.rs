@@ -1,0 +1,2 @@
+//! stokes: a research testbed for fluorescence in spectral light transport.
+pub mod geometry;
