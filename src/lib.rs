@@ -1,2 +1,4 @@
 //! stokes: a research testbed for fluorescence in spectral light transport.
 pub mod geometry;
+pub mod spectrum;
+pub mod material;

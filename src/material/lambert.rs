@@ -1,0 +1,43 @@
+//! Lambertian reflector: a reflectance spectrum, no wavelength shifting.
+
+use super::{Bbrrdf, BinOperator, WavelengthSampling};
+use crate::spectrum::{BinGrid, Spectrum};
+
+#[derive(Clone, Debug)]
+pub struct Lambert {
+    pub reflectance: Spectrum,
+}
+
+impl Bbrrdf for Lambert {
+    #[inline]
+    fn diagonal(&self, l: f32) -> f32 {
+        self.reflectance.eval(l)
+    }
+    fn kernel(&self, _: f32, _: f32) -> f32 {
+        0.0
+    }
+    fn is_fluorescent(&self) -> bool {
+        false
+    }
+    fn fluorescence_probability_light(&self, _: f32) -> f32 {
+        0.0
+    }
+    fn fluorescence_probability_camera(&self, _: f32) -> f32 {
+        0.0
+    }
+    fn shift_density_light(&self, _: f32, _: f32, _: WavelengthSampling) -> f32 {
+        0.0
+    }
+    fn shift_density_camera(&self, _: f32, _: f32, _: WavelengthSampling) -> f32 {
+        0.0
+    }
+    fn sample_shift_density_light(&self, l_in: f32, _: f32, _: WavelengthSampling) -> f32 {
+        l_in
+    }
+    fn sample_shift_density_camera(&self, l_out: f32, _: f32, _: WavelengthSampling) -> f32 {
+        l_out
+    }
+    fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
+        BinOperator::Diagonal { diag: self.reflectance.to_bins(grid) }
+    }
+}
