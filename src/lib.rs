@@ -2,3 +2,5 @@
 pub mod geometry;
 pub mod spectrum;
 pub mod material;
+pub mod scene;
+pub mod film;

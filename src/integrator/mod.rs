@@ -1,0 +1,293 @@
+//! Integrators and the interfaces they share: options, statistics, the per-sample random number
+//! stream and the sink that receives contributions. One integrator per file; the render loop is
+//! in `render.rs`.
+
+pub mod pt;
+pub mod render;
+
+pub use render::{RenderOutput, RenderSettings, render};
+
+use crate::material::WavelengthSampling;
+use crate::scene::Scene;
+use crate::spectrum::cie::CameraWavelengths;
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+/// The integrators stokes offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IntegratorKind {
+    /// Uni-directional path tracer, one wavelength per path (Mojzík §6; Jung 5.3 at fluorescent vertices).
+    PtMono,
+    /// Uni-directional path tracer with hero wavelength spectral sampling (Mojzík §6.2).
+    PtHero,
+    /// Bidirectional path tracer with the forward wavelength reset (Jung 6.3.1.1).
+    BdptForward,
+    /// Bidirectional path tracer with the backward wavelength reset (Jung 6.3.1.2).
+    BdptBackward,
+    /// Geometric BDPT evaluated for every wavelength bin (Jung 6.5).
+    BdptAllbins,
+}
+
+impl IntegratorKind {
+    pub fn name(&self) -> &'static str {
+        match self {
+            IntegratorKind::PtMono => "pt-mono",
+            IntegratorKind::PtHero => "pt-hero",
+            IntegratorKind::BdptForward => "bdpt-forward",
+            IntegratorKind::BdptBackward => "bdpt-backward",
+            IntegratorKind::BdptAllbins => "bdpt-allbins",
+        }
+    }
+    pub fn all() -> [IntegratorKind; 5] {
+        [
+            IntegratorKind::PtMono,
+            IntegratorKind::PtHero,
+            IntegratorKind::BdptForward,
+            IntegratorKind::BdptBackward,
+            IntegratorKind::BdptAllbins,
+        ]
+    }
+}
+
+/// How light sub-paths choose their first wavelength (Jung 6.2.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightWavelengths {
+    /// Option 4: ∝ the chosen light's emission spectrum.
+    #[default]
+    Emission,
+    /// Option 1: uniform over the domain.
+    Uniform,
+}
+
+/// MIS heuristic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MisHeuristic {
+    #[default]
+    Balance,
+    Power,
+}
+
+impl MisHeuristic {
+    /// Weight of a strategy with pdf `a` against one other strategy with pdf `b`.
+    #[inline]
+    pub fn weight2(&self, a: f32, b: f32) -> f32 {
+        match self {
+            MisHeuristic::Balance => a / (a + b),
+            MisHeuristic::Power => {
+                let (a2, b2) = (a * a, b * b);
+                if a2.is_infinite() { 1.0 } else { a2 / (a2 + b2) }
+            }
+        }
+    }
+    /// Exponent applied to pdf ratios.
+    #[inline]
+    pub fn exponent(&self) -> f32 {
+        match self {
+            MisHeuristic::Balance => 1.0,
+            MisHeuristic::Power => 2.0,
+        }
+    }
+}
+
+/// Options shared by the integrators; each integrator reads the ones it needs. In experiment
+/// configs these are the variant's `options` object.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IntegratorOptions {
+    /// Maximum number of path segments (1 = emitters seen directly).
+    pub max_depth: u32,
+    pub camera_wavelengths: CameraWavelengths,
+    pub wavelength_sampling: WavelengthSampling,
+    /// Hero wavelength lanes (pt-hero).
+    pub lanes: u32,
+    pub light_wavelengths: LightWavelengths,
+    pub mis: MisHeuristic,
+    /// Bin width in nm (bdpt-allbins).
+    pub bin_width: f32,
+    /// Russian roulette from this many segments on (pt-mono, pt-hero); off when absent.
+    pub rr_depth: Option<u32>,
+    /// Accumulate one image per BDPT strategy (s, t).
+    pub strategy_images: bool,
+}
+
+impl Default for IntegratorOptions {
+    fn default() -> Self {
+        IntegratorOptions {
+            max_depth: 8,
+            camera_wavelengths: CameraWavelengths::Uniform,
+            wavelength_sampling: WavelengthSampling::Importance,
+            lanes: 4,
+            light_wavelengths: LightWavelengths::Emission,
+            mis: MisHeuristic::Balance,
+            bin_width: 5.0,
+            rr_depth: None,
+            strategy_images: false,
+        }
+    }
+}
+
+impl IntegratorOptions {
+    /// Check values that serde cannot; the message names the option.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth == 0 || self.max_depth > 1024 {
+            return Err(format!("max_depth must be 1–1024, got {}", self.max_depth));
+        }
+        if self.lanes == 0 || self.lanes > 16 {
+            return Err(format!("lanes must be 1–16, got {}", self.lanes));
+        }
+        if !(self.bin_width >= 1.0 && self.bin_width <= 100.0) {
+            return Err(format!("bin_width must be 1–100 nm, got {}", self.bin_width));
+        }
+        Ok(())
+    }
+}
+
+/// Counters written with every render (`--stats`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct Stats {
+    /// Pixel samples (camera paths) traced.
+    pub paths: u64,
+    /// Path contributions that were non-zero (each strategy's connection counts once).
+    pub contributing_paths: u64,
+    /// Non-zero contributions by number of path segments (index = segments).
+    pub contributing_by_length: Vec<u64>,
+    /// Rays cast (closest hit and occlusion).
+    pub rays: u64,
+    /// Samples that would have put a NaN or Inf on the film, and were dropped.
+    pub nan_inf_rejected: u64,
+}
+
+impl Stats {
+    pub fn merge(&mut self, o: &Stats) {
+        self.paths += o.paths;
+        self.contributing_paths += o.contributing_paths;
+        self.rays += o.rays;
+        self.nan_inf_rejected += o.nan_inf_rejected;
+        if self.contributing_by_length.len() < o.contributing_by_length.len() {
+            self.contributing_by_length.resize(o.contributing_by_length.len(), 0);
+        }
+        for (a, b) in self.contributing_by_length.iter_mut().zip(&o.contributing_by_length) {
+            *a += b;
+        }
+    }
+
+    /// Record one non-zero contribution of a path with `segments` segments.
+    #[inline]
+    pub fn contribution(&mut self, segments: usize) {
+        self.contributing_paths += 1;
+        if self.contributing_by_length.len() <= segments {
+            self.contributing_by_length.resize(segments + 1, 0);
+        }
+        self.contributing_by_length[segments] += 1;
+    }
+}
+
+/// The random stream of one pixel sample: a PCG stream derived from (seed, pixel, sample index),
+/// so renders are reproducible whatever the thread count.
+pub struct Sampler {
+    rng: rand_pcg::Pcg32,
+}
+
+impl Sampler {
+    pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
+        let state = splitmix64(seed ^ splitmix64(pixel ^ splitmix64(sample ^ 0x9E37_79B9_7F4A_7C15)));
+        let stream = splitmix64(pixel.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ seed);
+        Sampler { rng: rand_pcg::Pcg32::new(state, stream) }
+    }
+    /// A seeded stream for tests and tools.
+    pub fn from_seed(seed: u64) -> Self {
+        Sampler { rng: rand_pcg::Pcg32::seed_from_u64(seed) }
+    }
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn next(&mut self) -> f32 {
+        // 24 random bits: exactly representable, never 1.0.
+        (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+    #[inline]
+    pub fn next2(&mut self) -> [f32; 2] {
+        [self.next(), self.next()]
+    }
+    #[inline]
+    pub fn rng(&mut self) -> &mut impl Rng {
+        &mut self.rng
+    }
+}
+
+use rand::RngCore;
+
+#[inline]
+fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Receives the contributions of one pixel sample. Non-finite values are counted and dropped.
+pub struct SampleSink<'a> {
+    /// XYZ accumulated for the sample's own pixel.
+    pub value: Vec3,
+    pub width: u32,
+    pub height: u32,
+    pub splats: &'a mut Vec<(u32, Vec3)>,
+    pub aux: &'a mut Vec<(u16, u32, Vec3)>,
+    pub stats: &'a mut Stats,
+    /// The pixel this sample belongs to (index), for auxiliary layers.
+    pub pixel: u32,
+}
+
+impl SampleSink<'_> {
+    /// Add XYZ to the sample's pixel.
+    #[inline]
+    pub fn add(&mut self, xyz: Vec3) -> bool {
+        if xyz.is_finite() {
+            self.value += xyz;
+            true
+        } else {
+            self.stats.nan_inf_rejected += 1;
+            false
+        }
+    }
+
+    /// Splat XYZ at film position (x, y) in pixels (light tracing). Pixel value = (samples +
+    /// splats) / spp, so a splat must be that pixel's estimate for one pixel sample.
+    #[inline]
+    pub fn splat(&mut self, x: f32, y: f32, xyz: Vec3) -> bool {
+        if !xyz.is_finite() {
+            self.stats.nan_inf_rejected += 1;
+            return false;
+        }
+        if x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32 {
+            self.splats.push((y as u32 * self.width + x as u32, xyz));
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Add to auxiliary layer `layer` at pixel index `pixel`.
+    #[inline]
+    pub fn aux(&mut self, layer: usize, pixel: u32, xyz: Vec3) {
+        if xyz.is_finite() {
+            self.aux.push((layer as u16, pixel, xyz));
+        }
+    }
+}
+
+/// An integrator: turns one pixel sample into contributions.
+pub trait Integrator: Sync {
+    /// Per-thread scratch memory (path vertex buffers), reused across samples.
+    type Scratch: Send;
+    fn scratch(&self, scene: &Scene) -> Self::Scratch;
+    /// Names of auxiliary layers this integrator writes (e.g. BDPT strategies).
+    fn aux_layers(&self) -> Vec<String> {
+        Vec::new()
+    }
+    /// Trace one sample through film position (x, y) (pixels, continuous).
+    fn sample(&self, scene: &Scene, x: f32, y: f32, sampler: &mut Sampler, scratch: &mut Self::Scratch, sink: &mut SampleSink);
+}
