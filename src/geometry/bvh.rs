@@ -1,8 +1,700 @@
-//! Acceleration structure (placeholder; being written).
+//! Acceleration structure: one compressed wide BVH8 (`obvhs` CWBVH) over triangles and analytic
+//! spheres.
+//!
+//! Layout: the BVH's leaves address a contiguous primitive-slot range; for each slot we store a
+//! precomputed 64-byte record (`Prim`, triangle in the `RtTriangle` layout or a sphere) and the
+//! original primitive id, so traversal never needs the `primitive_indices` indirection.
+//!
+//! Notes on `obvhs` 0.4 (see the report in the commit message):
+//! - `CwBvhNode::intersect_ray` clamps the ray's `tmin` to a hard-coded `1e-4`, so hits closer than
+//!   that are silently culled at the node level. We use our own (same-algorithm) SIMD node test that
+//!   uses `tmin = 0`.
+//! - The `traverse!` macro's documented "`break` to halt traversal" only leaves the inner leaf loop;
+//!   we break out of a labelled block instead.
+//! - `Triangle::compute_barycentric` is wrong; we compute barycentrics in our own intersector.
+
+use glam::{UVec2, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    aabb::Aabb,
+    bvh2::reinsertion::ReinsertionOptimizer,
+    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode},
+    ploc::PlocBuilder,
+    splits::split_aabbs_preset,
+    traverse,
+};
+
 use super::{Hit, Ray, Sphere, Triangle};
-pub struct Accel;
+
+/// Precomputed primitive record (one per BVH primitive slot).
+///
+/// Triangle: `a = v0`, `b = v0 - v1`, `c = v2 - v0`, `d = b x c` (layout of madmann91's `bvh` /
+/// `obvhs::rt_triangle::RtTriangle`). Sphere: `a = center`, `b = (r, r^2, 0)`.
+/// Aligned to a cache line (one line per record).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+struct Prim {
+    a: Vec3A,
+    b: Vec3A,
+    c: Vec3A,
+    d: Vec3A,
+}
+
+impl Prim {
+    fn triangle(t: &Triangle) -> Prim {
+        let v0 = Vec3A::from(t.v[0]);
+        let e1 = v0 - Vec3A::from(t.v[1]);
+        let e2 = Vec3A::from(t.v[2]) - v0;
+        Prim {
+            a: v0,
+            b: e1,
+            c: e2,
+            d: e1.cross(e2),
+        }
+    }
+
+    fn sphere(s: &Sphere) -> Prim {
+        Prim {
+            a: Vec3A::from(s.center),
+            b: Vec3A::new(s.radius, s.radius * s.radius, 0.0),
+            c: Vec3A::ZERO,
+            d: Vec3A::ZERO,
+        }
+    }
+
+    /// Möller–Trumbore (no culling). Returns `t` (or a value failing `0 < t < t_max`, possibly NaN)
+    /// and the barycentrics of v1 and v2.
+    #[inline(always)]
+    fn intersect_triangle(&self, r: &TRay) -> (f32, f32, f32) {
+        let c = self.a - r.o;
+        let rr = r.d.cross(c);
+        let inv_det = 1.0 / self.d.dot(r.d);
+        let u = rr.dot(self.c) * inv_det;
+        let v = rr.dot(self.b) * inv_det;
+        let w = 1.0 - u - v;
+        // Sign bits: rejects negative values and -0; NaN (degenerate / parallel) gives NaN t below.
+        if (u.to_bits() | v.to_bits() | w.to_bits()) & 0x8000_0000 != 0 {
+            return (f32::NAN, 0.0, 0.0);
+        }
+        (self.d.dot(c) * inv_det, u, v)
+    }
+
+    /// Nearest root in `(0, t_max)` of a ray/sphere intersection, using the numerically robust
+    /// form of Ray Tracing Gems, ch. 7 (discriminant from the closest-approach vector and the
+    /// `q = b + sign(b) sqrt(...)` root pair). Returns NaN/inf/<=0 on miss.
+    #[inline(always)]
+    fn intersect_sphere(&self, r: &TRay, t_max: f32) -> f32 {
+        let r2 = self.b.y;
+        let f = r.o - self.a;
+        let a = r.d.length_squared();
+        let b = -f.dot(r.d); // b' (half of -b in the textbook form)
+        let c = f.length_squared() - r2;
+        let l = f + (b / a) * r.d;
+        let disc = r2 - l.length_squared();
+        if disc < 0.0 {
+            return f32::NAN;
+        }
+        let q = b + (a * disc).sqrt().copysign(b);
+        let t0 = c / q;
+        let t1 = q / a;
+        let (t_near, t_far) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        if t_near > 0.0 && t_near < t_max {
+            t_near
+        } else {
+            t_far
+        }
+    }
+}
+
+/// Traversal ray: origin, direction, clamped reciprocal direction.
+#[derive(Clone, Copy)]
+struct TRay {
+    o: Vec3A,
+    d: Vec3A,
+    inv_d: Vec3A,
+}
+
+impl TRay {
+    #[inline(always)]
+    fn new(ray: &Ray) -> TRay {
+        let d = Vec3A::from(ray.d);
+        // Avoid infinities (0 * inf = NaN in the slab test): clamp tiny components.
+        let safe = |x: f32| {
+            if x.abs() < 1e-20 {
+                1.0 / 1e-20f32.copysign(x)
+            } else {
+                1.0 / x
+            }
+        };
+        TRay {
+            o: Vec3A::from(ray.o),
+            d,
+            inv_d: Vec3A::new(safe(d.x), safe(d.y), safe(d.z)),
+        }
+    }
+}
+
+/// Ray vs. the (up to) 8 quantised child boxes of a CWBVH node; returns the obvhs hit mask.
+/// Same algorithm as `CwBvhNode::intersect_ray_simd`, but with `tmin = 0` instead of obvhs'
+/// hard-coded `1e-4`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, oct_inv4: u32) -> u32 {
+    use obvhs::cwbvh::node::extract_byte64;
+    use std::arch::x86_64::*;
+
+    let adj_dir_inv = node.compute_extent() * r.inv_d;
+    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
+    let rdx = r.d.x < 0.0;
+    let rdy = r.d.y < 0.0;
+    let rdz = r.d.z < 0.0;
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hit_mask = 0u32;
+
+    #[inline(always)]
+    fn get_q(v: &[u8; 8], i: usize) -> __m128 {
+        let b = &v[i * 4..i * 4 + 4];
+        unsafe { _mm_set_ps(b[3] as f32, b[2] as f32, b[1] as f32, b[0] as f32) }
+    }
+
+    // SAFETY: SSE/SSE2 are part of the x86_64 baseline.
+    unsafe {
+        let dx = _mm_set1_ps(adj_dir_inv.x);
+        let dy = _mm_set1_ps(adj_dir_inv.y);
+        let dz = _mm_set1_ps(adj_dir_inv.z);
+        let ox = _mm_set1_ps(adj_orig.x);
+        let oy = _mm_set1_ps(adj_orig.y);
+        let oz = _mm_set1_ps(adj_orig.z);
+        let zero = _mm_setzero_ps();
+        let tmax_v = _mm_set1_ps(t_max);
+        for i in 0..2 {
+            let (lo, hi) = (get_q(&node.child_min_x, i), get_q(&node.child_max_x, i));
+            let (xn, xf) = if rdx { (hi, lo) } else { (lo, hi) };
+            let tmin_x = _mm_add_ps(_mm_mul_ps(xn, dx), ox);
+            let tmax_x = _mm_add_ps(_mm_mul_ps(xf, dx), ox);
+            let (lo, hi) = (get_q(&node.child_min_y, i), get_q(&node.child_max_y, i));
+            let (yn, yf) = if rdy { (hi, lo) } else { (lo, hi) };
+            let tmin_y = _mm_add_ps(_mm_mul_ps(yn, dy), oy);
+            let tmax_y = _mm_add_ps(_mm_mul_ps(yf, dy), oy);
+            let (lo, hi) = (get_q(&node.child_min_z, i), get_q(&node.child_max_z, i));
+            let (zn, zf) = if rdz { (hi, lo) } else { (lo, hi) };
+            let tmin_z = _mm_add_ps(_mm_mul_ps(zn, dz), oz);
+            let tmax_z = _mm_add_ps(_mm_mul_ps(zf, dz), oz);
+            let tmin = _mm_max_ps(_mm_max_ps(tmin_x, tmin_y), _mm_max_ps(tmin_z, zero));
+            let tmax = _mm_min_ps(_mm_min_ps(tmax_x, tmax_y), _mm_min_ps(tmax_z, tmax_v));
+            let mut mask = _mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32;
+            while mask != 0 {
+                let j = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let k = i * 4 + j;
+                hit_mask |= extract_byte64(child_bits8, k) << extract_byte64(bit_index8, k);
+            }
+        }
+    }
+    hit_mask
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, oct_inv4: u32) -> u32 {
+    use obvhs::cwbvh::node::extract_byte64;
+    let adj_dir_inv = node.compute_extent() * r.inv_d;
+    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hit_mask = 0;
+    for ch in 0..8 {
+        let lo = Vec3A::new(
+            node.child_min_x[ch] as f32,
+            node.child_min_y[ch] as f32,
+            node.child_min_z[ch] as f32,
+        );
+        let hi = Vec3A::new(
+            node.child_max_x[ch] as f32,
+            node.child_max_y[ch] as f32,
+            node.child_max_z[ch] as f32,
+        );
+        let t0 = lo * adj_dir_inv + adj_orig;
+        let t1 = hi * adj_dir_inv + adj_orig;
+        let tmin = t0.min(t1).max_element().max(0.0);
+        let tmax = t0.max(t1).min_element().min(t_max);
+        if tmin <= tmax {
+            hit_mask |= extract_byte64(child_bits8, ch) << extract_byte64(bit_index8, ch);
+        }
+    }
+    hit_mask
+}
+
+/// The scene's acceleration structure (triangles and spheres in one CWBVH).
+pub struct Accel {
+    bvh: CwBvh,
+    /// Per BVH primitive slot: precomputed intersection record.
+    prims: Vec<Prim>,
+    /// Per BVH primitive slot: original primitive id (triangles first, then spheres).
+    ids: Vec<u32>,
+    n_tris: u32,
+    n_spheres: u32,
+}
+
 impl Accel {
-    pub fn build(_t: &[Triangle], _s: &[Sphere]) -> Accel { Accel }
-    pub fn intersect(&self, _r: &Ray, _tmax: f32) -> Option<Hit> { None }
-    pub fn occluded(&self, _r: &Ray, _tmax: f32) -> bool { false }
+    pub fn build(triangles: &[Triangle], spheres: &[Sphere]) -> Accel {
+        Self::build_with(triangles, spheres, BvhBuildParams::medium_build(), true)
+    }
+
+    /// Build with explicit obvhs parameters (`pre_split`: split large triangles' boxes).
+    #[doc(hidden)]
+    pub fn build_with(
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        params: BvhBuildParams,
+        pre_split: bool,
+    ) -> Accel {
+        let n_tris = triangles.len();
+        let n = n_tris + spheres.len();
+        assert!(n < u32::MAX as usize, "too many primitives");
+        if n == 0 {
+            return Accel {
+                bvh: CwBvh::default(),
+                prims: Vec::new(),
+                ids: Vec::new(),
+                n_tris: 0,
+                n_spheres: 0,
+            };
+        }
+
+        // Pre-splitting large triangles (obvhs' precise triangle splits) pays off a lot on soups of
+        // long thin triangles; it needs the obvhs triangle type, so only keep those alive briefly.
+        let pre_split = pre_split && n_tris > 0;
+
+        let mut aabbs: Vec<Aabb> = Vec::with_capacity(n + n / 4);
+        let mut indices: Vec<u32> = Vec::with_capacity(n + n / 4);
+        if pre_split {
+            let otris: Vec<obvhs::triangle::Triangle> = triangles
+                .iter()
+                .map(|t| obvhs::triangle::Triangle {
+                    v0: t.v[0].into(),
+                    v1: t.v[1].into(),
+                    v2: t.v[2].into(),
+                })
+                .collect();
+            let mut largest = 0.0f32;
+            let mut avg = 0.0f64;
+            for t in &otris {
+                let aabb = t.aabb();
+                let ha = aabb.half_area();
+                largest = largest.max(ha);
+                avg += ha as f64;
+                aabbs.push(aabb);
+            }
+            indices.extend(0..n_tris as u32);
+            let avg = (avg / n_tris as f64) as f32;
+            split_aabbs_preset(&mut aabbs, &mut indices, &otris, avg, largest);
+        } else {
+            aabbs.extend(
+                triangles
+                    .iter()
+                    .map(|t| Aabb::from_points(&[t.v[0].into(), t.v[1].into(), t.v[2].into()])),
+            );
+            indices.extend(0..n_tris as u32);
+        }
+        for (i, s) in spheres.iter().enumerate() {
+            let c = Vec3A::from(s.center);
+            let r = Vec3A::splat(s.radius.abs());
+            aabbs.push(Aabb::new(c - r, c + r));
+            indices.push((n_tris + i) as u32);
+        }
+
+        // obvhs quirk: PLOC leaves store the *value* of `indices[i]` as their index into
+        // `primitive_indices` (which is `indices`), so non-identity index lists (as produced by the
+        // splits, plus our appended spheres) get mangled. Build over piece positions instead and
+        // map pieces back to primitives ourselves.
+        let piece_to_prim = indices;
+        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+            params.ploc_search_distance,
+            &aabbs,
+            (0..aabbs.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        drop(aabbs);
+        bvh2.uses_spatial_splits = pre_split;
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        let mut bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
+        drop(bvh2);
+
+        let mut ids = std::mem::take(&mut bvh.primitive_indices);
+        for id in ids.iter_mut() {
+            *id = piece_to_prim[*id as usize];
+        }
+        drop(piece_to_prim);
+        let prims = ids
+            .iter()
+            .map(|&id| {
+                let id = id as usize;
+                if id < n_tris {
+                    Prim::triangle(&triangles[id])
+                } else {
+                    Prim::sphere(&spheres[id - n_tris])
+                }
+            })
+            .collect();
+
+        Accel {
+            bvh,
+            prims,
+            ids,
+            n_tris: n_tris as u32,
+            n_spheres: spheres.len() as u32,
+        }
+    }
+
+    pub fn num_primitives(&self) -> usize {
+        (self.n_tris + self.n_spheres) as usize
+    }
+
+    /// Closest hit with t in (0, t_max). Primitive ids `0..triangles.len()` are triangles
+    /// (u, v = barycentrics of v1 and v2), then spheres (u, v unused, 0).
+    pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+            return None;
+        }
+        if self.n_spheres == 0 {
+            self.intersect_impl::<false>(ray, t_max)
+        } else {
+            self.intersect_impl::<true>(ray, t_max)
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_impl<const MIXED: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let r = TRay::new(ray);
+        let mut t_best = t_max;
+        let mut slot_best = u32::MAX;
+        let (mut u_best, mut v_best) = (0.0, 0.0);
+        let mut state = self.bvh.new_traversal(r.d);
+        let mut node;
+        traverse!(
+            self.bvh,
+            node,
+            state,
+            intersect_node(node, &r, t_best, state.oct_inv4),
+            {
+                let slot = state.primitive_id as usize;
+                // SAFETY: the CWBVH only addresses slots 0..primitive_indices.len() == prims.len().
+                let p = unsafe { self.prims.get_unchecked(slot) };
+                if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
+                    let t = p.intersect_sphere(&r, t_best);
+                    if t > 0.0 && t < t_best {
+                        t_best = t;
+                        slot_best = slot as u32;
+                        u_best = 0.0;
+                        v_best = 0.0;
+                    }
+                } else {
+                    let (t, u, v) = p.intersect_triangle(&r);
+                    if t > 0.0 && t < t_best {
+                        t_best = t;
+                        slot_best = slot as u32;
+                        u_best = u;
+                        v_best = v;
+                    }
+                }
+            }
+        );
+        (slot_best != u32::MAX).then(|| Hit {
+            t: t_best,
+            prim: self.ids[slot_best as usize],
+            u: u_best,
+            v: v_best,
+        })
+    }
+
+    /// Any hit with t in (0, t_max).
+    pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+            return false;
+        }
+        if self.n_spheres == 0 {
+            self.occluded_impl::<false>(ray, t_max)
+        } else {
+            self.occluded_impl::<true>(ray, t_max)
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_impl<const MIXED: bool>(&self, ray: &Ray, t_max: f32) -> bool {
+        let r = TRay::new(ray);
+        let mut state = self.bvh.new_traversal(r.d);
+        let mut node;
+        // Note: `break` inside `traverse!`'s primitive block only leaves the leaf loop, so
+        // break out of a labelled block instead.
+        'search: {
+            traverse!(
+                self.bvh,
+                node,
+                state,
+                intersect_node(node, &r, t_max, state.oct_inv4),
+                {
+                    let slot = state.primitive_id as usize;
+                    // SAFETY: see `intersect_impl`.
+                    let p = unsafe { self.prims.get_unchecked(slot) };
+                    let t = if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
+                        p.intersect_sphere(&r, t_max)
+                    } else {
+                        p.intersect_triangle(&r).0
+                    };
+                    if t > 0.0 && t < t_max {
+                        break 'search true;
+                    }
+                }
+            );
+            false
+        }
+    }
+}
+
+/// Brute-force reference intersection (same primitive intersectors, no BVH); for tests.
+#[doc(hidden)]
+pub fn brute_force_intersect(
+    triangles: &[Triangle],
+    spheres: &[Sphere],
+    ray: &Ray,
+    t_max: f32,
+) -> Option<Hit> {
+    let r = TRay::new(ray);
+    let mut best: Option<Hit> = None;
+    let mut t_best = t_max;
+    for (i, tri) in triangles.iter().enumerate() {
+        let (t, u, v) = Prim::triangle(tri).intersect_triangle(&r);
+        if t > 0.0 && t < t_best {
+            t_best = t;
+            best = Some(Hit {
+                t,
+                prim: i as u32,
+                u,
+                v,
+            });
+        }
+    }
+    for (i, s) in spheres.iter().enumerate() {
+        let t = Prim::sphere(s).intersect_sphere(&r, t_best);
+        if t > 0.0 && t < t_best {
+            t_best = t;
+            best = Some(Hit {
+                t,
+                prim: (triangles.len() + i) as u32,
+                u: 0.0,
+                v: 0.0,
+            });
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    fn rand_vec(rng: &mut Pcg64, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(
+            rng.random_range(lo..hi),
+            rng.random_range(lo..hi),
+            rng.random_range(lo..hi),
+        )
+    }
+
+    fn rand_dir(rng: &mut Pcg64) -> Vec3 {
+        loop {
+            let v = rand_vec(rng, -1.0, 1.0);
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+
+    fn scene(rng: &mut Pcg64, n_tris: usize, n_spheres: usize) -> (Vec<Triangle>, Vec<Sphere>) {
+        let tris = (0..n_tris)
+            .map(|_| {
+                let c = rand_vec(rng, -10.0, 10.0);
+                let s = rng.random_range(0.05..2.0);
+                Triangle::new(
+                    c + rand_vec(rng, -s, s),
+                    c + rand_vec(rng, -s, s),
+                    c + rand_vec(rng, -s, s),
+                )
+            })
+            .collect();
+        let spheres = (0..n_spheres)
+            .map(|_| Sphere {
+                center: rand_vec(rng, -10.0, 10.0),
+                radius: rng.random_range(0.05..2.5),
+            })
+            .collect();
+        (tris, spheres)
+    }
+
+    fn check(tris: &[Triangle], spheres: &[Sphere], n_rays: usize, seed: u64) {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let accel = Accel::build(tris, spheres);
+        assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
+        let mut hits = 0;
+        for k in 0..n_rays {
+            // Mix of rays from outside, rays from inside spheres, and short rays.
+            let o = if !spheres.is_empty() && k % 4 == 0 {
+                let s = spheres[rng.random_range(0..spheres.len())];
+                s.center + rand_dir(&mut rng) * s.radius * rng.random_range(0.0..0.99)
+            } else {
+                rand_vec(&mut rng, -14.0, 14.0)
+            };
+            let d = if k % 3 == 0 {
+                // aim at something
+                let target = if !tris.is_empty() && (spheres.is_empty() || k % 2 == 0) {
+                    tris[rng.random_range(0..tris.len())].sample_uniform(rng.random(), rng.random())
+                } else if !spheres.is_empty() {
+                    spheres[rng.random_range(0..spheres.len())].center
+                } else {
+                    Vec3::ZERO
+                };
+                (target - o).try_normalize().unwrap_or(Vec3::X)
+            } else {
+                rand_dir(&mut rng)
+            };
+            let ray = Ray::new(o, d);
+            let t_max = if k % 5 == 0 {
+                rng.random_range(0.1..20.0)
+            } else {
+                f32::INFINITY
+            };
+            let bf = brute_force_intersect(tris, spheres, &ray, t_max);
+            let got = accel.intersect(&ray, t_max);
+            match (bf, got) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    assert_eq!(a.t, b.t, "ray {k}: t mismatch {a:?} vs {b:?}");
+                    if a.prim != b.prim {
+                        // tie: the reported primitive must have the same distance
+                        let only = |p: u32| {
+                            let p = p as usize;
+                            if p < tris.len() {
+                                brute_force_intersect(&tris[p..p + 1], &[], &ray, t_max)
+                            } else {
+                                let s = p - tris.len();
+                                brute_force_intersect(&[], &spheres[s..s + 1], &ray, t_max)
+                            }
+                        };
+                        assert_eq!(only(b.prim).map(|h| h.t), Some(a.t), "ray {k}");
+                    }
+                    assert_eq!((a.u, a.v), (b.u, b.v), "ray {k}");
+                    if (b.prim as usize) < tris.len() {
+                        let p = tris[b.prim as usize].point(b.u, b.v);
+                        let q = ray.at(b.t);
+                        assert!((p - q).length() < 1e-3 * (1.0 + q.length()), "{p} vs {q}");
+                    } else {
+                        let s = spheres[b.prim as usize - tris.len()];
+                        let dist = (ray.at(b.t) - s.center).length();
+                        assert!((dist - s.radius).abs() < 1e-3 * (1.0 + s.radius));
+                    }
+                }
+                (a, b) => panic!("ray {k}: brute force {a:?}, bvh {b:?}"),
+            }
+            assert_eq!(
+                accel.occluded(&ray, t_max),
+                bf.is_some(),
+                "ray {k}: occlusion"
+            );
+        }
+        if n_rays > 100 && tris.len() + spheres.len() > 10 {
+            assert!(hits > n_rays / 10, "too few hits to be meaningful: {hits}");
+        }
+    }
+
+    #[test]
+    fn random_soup_with_spheres() {
+        let mut rng = Pcg64::seed_from_u64(1);
+        let (t, s) = scene(&mut rng, 3000, 200);
+        check(&t, &s, 5000, 2);
+    }
+
+    #[test]
+    fn random_triangles_only() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let (t, s) = scene(&mut rng, 5000, 0);
+        check(&t, &s, 5000, 4);
+    }
+
+    #[test]
+    fn random_spheres_only() {
+        let mut rng = Pcg64::seed_from_u64(5);
+        let (t, s) = scene(&mut rng, 0, 500);
+        check(&t, &s, 5000, 6);
+    }
+
+    #[test]
+    fn single_primitives() {
+        let mut rng = Pcg64::seed_from_u64(7);
+        let (t, _) = scene(&mut rng, 1, 0);
+        check(&t, &[], 2000, 8);
+        let (_, s) = scene(&mut rng, 0, 1);
+        check(&[], &s, 2000, 9);
+        let (t, s) = scene(&mut rng, 1, 1);
+        check(&t, &s, 2000, 10);
+    }
+
+    #[test]
+    fn empty_scene() {
+        let accel = Accel::build(&[], &[]);
+        assert_eq!(accel.num_primitives(), 0);
+        let ray = Ray::new(Vec3::ZERO, Vec3::Z);
+        assert!(accel.intersect(&ray, f32::INFINITY).is_none());
+        assert!(!accel.occluded(&ray, f32::INFINITY));
+    }
+
+    #[test]
+    fn inside_sphere_hits_far_side() {
+        let s = Sphere {
+            center: Vec3::new(1.0, 2.0, 3.0),
+            radius: 2.0,
+        };
+        let accel = Accel::build(&[], &[s]);
+        let ray = Ray::new(s.center, Vec3::X);
+        let h = accel.intersect(&ray, f32::INFINITY).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-5);
+        assert_eq!(h.prim, 0);
+        assert!(accel.intersect(&ray, 1.9).is_none());
+        assert!(accel.occluded(&ray, 2.1));
+        assert!(!accel.occluded(&ray, 1.9));
+    }
+
+    #[test]
+    fn both_sides_and_barycentrics() {
+        let tri = Triangle::new(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
+        let accel = Accel::build(&[tri], &[]);
+        for dz in [-1.0f32, 1.0] {
+            let ray = Ray::new(Vec3::new(0.25, 0.5, -dz), Vec3::new(0.0, 0.0, dz));
+            let h = accel.intersect(&ray, f32::INFINITY).unwrap();
+            assert!((h.t - 1.0).abs() < 1e-6);
+            assert!(
+                (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6,
+                "{h:?}"
+            );
+        }
+        // Very close hit (t < 1e-4) must not be culled.
+        let ray = Ray::new(Vec3::new(0.25, 0.25, -1e-6), Vec3::Z);
+        let h = accel.intersect(&ray, f32::INFINITY).unwrap();
+        assert!(h.t > 0.0 && h.t < 2e-6);
+    }
+
+    #[test]
+    fn send_sync() {
+        fn is<T: Send + Sync>() {}
+        is::<Accel>();
+    }
 }

@@ -1,0 +1,68 @@
+//! Closest-hit throughput on the stored ray sets (`benches/data/rays/`), 2 threads via rayon.
+//!
+//! Before timing, the hits are verified against the stored reference hits (t relative 1e-4,
+//! primitive ids equal or tied) and the match rates printed.
+
+#[path = "../tests/common/ray_sets.rs"]
+mod ray_sets;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use rayon::prelude::*;
+use std::hint::black_box;
+use std::time::Duration;
+use stokes::geometry::Accel;
+
+const CHUNK: usize = 1024;
+
+fn bench_rays(c: &mut Criterion) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let mut group = c.benchmark_group("closest_hit_2threads");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_secs(1));
+    group.measurement_time(Duration::from_secs(3));
+
+    for name in ["cbox", "soup100k"] {
+        let set = ray_sets::load(name);
+        let t0 = std::time::Instant::now();
+        let accel = Accel::build(&set.tris, &[]);
+        let build = t0.elapsed();
+        let s = ray_sets::compare(&set, &accel, 0..set.rays.len());
+        println!(
+            "{name}: {} tris, build {:.1} ms; {} rays: t match {:.4}% (strict rel 1e-4: {:.4}%), \
+             prim match {:.4}% ({} ties)",
+            set.tris.len(),
+            build.as_secs_f64() * 1e3,
+            s.n,
+            100.0 * s.t_rate(),
+            100.0 * s.t_match_strict as f64 / s.n as f64,
+            100.0 * s.prim_rate(),
+            s.ties,
+        );
+
+        let mut out = vec![0.0f32; set.rays.len()];
+        group.throughput(Throughput::Elements(set.rays.len() as u64));
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    out.par_chunks_mut(CHUNK)
+                        .zip(set.rays.par_chunks(CHUNK))
+                        .for_each(|(o, rays)| {
+                            for (o, r) in o.iter_mut().zip(rays) {
+                                *o = accel
+                                    .intersect(r, f32::INFINITY)
+                                    .map_or(f32::INFINITY, |h| h.t);
+                            }
+                        })
+                });
+                black_box(&out);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_rays);
+criterion_main!(benches);
