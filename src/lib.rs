@@ -1,6 +1,8 @@
 //! stokes: a research testbed for fluorescence in spectral light transport.
+pub mod cli;
+pub mod film;
 pub mod geometry;
-pub mod spectrum;
+pub mod integrator;
 pub mod material;
 pub mod scene;
-pub mod film;
+pub mod spectrum;

@@ -54,26 +54,47 @@ impl Film {
 
     /// The current estimate in XYZ.
     pub fn xyz(&self) -> Vec<Vec3> {
-        let k = if self.spp > 0 { 1.0 / self.spp as f64 } else { 0.0 };
+        let k = if self.spp > 0 {
+            1.0 / self.spp as f64
+        } else {
+            0.0
+        };
         self.sum
             .iter()
             .zip(&self.splat)
-            .map(|(a, b)| Vec3::new(((a[0] + b[0]) * k) as f32, ((a[1] + b[1]) * k) as f32, ((a[2] + b[2]) * k) as f32))
+            .map(|(a, b)| {
+                Vec3::new(
+                    ((a[0] + b[0]) * k) as f32,
+                    ((a[1] + b[1]) * k) as f32,
+                    ((a[2] + b[2]) * k) as f32,
+                )
+            })
             .collect()
     }
 
     /// The current estimate in linear sRGB (D65).
     pub fn rgb(&self) -> Vec<Vec3> {
-        self.xyz().into_iter().map(crate::spectrum::xyz_to_linear_srgb).collect()
+        self.xyz()
+            .into_iter()
+            .map(crate::spectrum::xyz_to_linear_srgb)
+            .collect()
     }
 
     /// An auxiliary layer in linear sRGB.
     pub fn aux_rgb(&self, layer: usize) -> Vec<Vec3> {
-        let k = if self.spp > 0 { 1.0 / self.spp as f64 } else { 0.0 };
+        let k = if self.spp > 0 {
+            1.0 / self.spp as f64
+        } else {
+            0.0
+        };
         self.aux[layer]
             .iter()
             .map(|a| {
-                crate::spectrum::xyz_to_linear_srgb(Vec3::new((a[0] * k) as f32, (a[1] * k) as f32, (a[2] * k) as f32))
+                crate::spectrum::xyz_to_linear_srgb(Vec3::new(
+                    (a[0] * k) as f32,
+                    (a[1] * k) as f32,
+                    (a[2] * k) as f32,
+                ))
             })
             .collect()
     }

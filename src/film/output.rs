@@ -7,15 +7,22 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Write `bytes_writer` output to a temp file, then rename over `path`.
-pub fn write_atomic(path: &Path, f: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
+pub fn write_atomic(
+    path: &Path,
+    f: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), String> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder '{}': {e}", dir.display()))?;
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create folder '{}': {e}", dir.display()))?;
         }
     }
     let tmp = temp_path(path);
@@ -26,7 +33,10 @@ pub fn write_atomic(path: &Path, f: impl FnOnce(&Path) -> Result<(), String>) ->
     }
     std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        format!("cannot move the output into place at '{}': {e}", path.display())
+        format!(
+            "cannot move the output into place at '{}': {e}",
+            path.display()
+        )
     })
 }
 
@@ -46,7 +56,13 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
     use exr::prelude::*;
     let img = read_first_rgba_layer_from_file(
         path,
-        |res, _| (res.width(), res.height(), vec![Vec3::ZERO; res.width() * res.height()]),
+        |res, _| {
+            (
+                res.width(),
+                res.height(),
+                vec![Vec3::ZERO; res.width() * res.height()],
+            )
+        },
         |(w, _, px): &mut (usize, usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
             px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
         },
@@ -57,7 +73,13 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
 }
 
 /// Write an 8-bit sRGB PNG preview; `exposure` is in stops.
-pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3], exposure: f32) -> Result<(), String> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[Vec3],
+    exposure: f32,
+) -> Result<(), String> {
     let k = 2f32.powf(exposure);
     let mut buf = Vec::with_capacity(rgb.len() * 3);
     for c in rgb {
@@ -67,7 +89,14 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3], exposure: f
         }
     }
     write_atomic(path, |tmp| {
-        image::save_buffer_with_format(tmp, &buf, width, height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
-            .map_err(|e| format!("cannot write PNG '{}': {e}", path.display()))
+        image::save_buffer_with_format(
+            tmp,
+            &buf,
+            width,
+            height,
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| format!("cannot write PNG '{}': {e}", path.display()))
     })
 }

@@ -38,7 +38,16 @@ impl Camera {
         } else {
             (t * aspect, t)
         };
-        Camera { origin, right, up, forward, width, height, tan_half_x, tan_half_y }
+        Camera {
+            origin,
+            right,
+            up,
+            forward,
+            width,
+            height,
+            tan_half_x,
+            tan_half_y,
+        }
     }
 
     /// Ray through film position (x, y) in pixels; (0, 0) is the top-left corner.

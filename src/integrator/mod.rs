@@ -79,7 +79,11 @@ impl MisHeuristic {
             MisHeuristic::Balance => a / (a + b),
             MisHeuristic::Power => {
                 let (a2, b2) = (a * a, b * b);
-                if a2.is_infinite() { 1.0 } else { a2 / (a2 + b2) }
+                if a2.is_infinite() {
+                    1.0
+                } else {
+                    a2 / (a2 + b2)
+                }
             }
         }
     }
@@ -140,7 +144,10 @@ impl IntegratorOptions {
             return Err(format!("lanes must be 1–16, got {}", self.lanes));
         }
         if !(self.bin_width >= 1.0 && self.bin_width <= 100.0) {
-            return Err(format!("bin_width must be 1–100 nm, got {}", self.bin_width));
+            return Err(format!(
+                "bin_width must be 1–100 nm, got {}",
+                self.bin_width
+            ));
         }
         Ok(())
     }
@@ -168,9 +175,14 @@ impl Stats {
         self.rays += o.rays;
         self.nan_inf_rejected += o.nan_inf_rejected;
         if self.contributing_by_length.len() < o.contributing_by_length.len() {
-            self.contributing_by_length.resize(o.contributing_by_length.len(), 0);
+            self.contributing_by_length
+                .resize(o.contributing_by_length.len(), 0);
         }
-        for (a, b) in self.contributing_by_length.iter_mut().zip(&o.contributing_by_length) {
+        for (a, b) in self
+            .contributing_by_length
+            .iter_mut()
+            .zip(&o.contributing_by_length)
+        {
             *a += b;
         }
     }
@@ -194,13 +206,18 @@ pub struct Sampler {
 
 impl Sampler {
     pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
-        let state = splitmix64(seed ^ splitmix64(pixel ^ splitmix64(sample ^ 0x9E37_79B9_7F4A_7C15)));
+        let state =
+            splitmix64(seed ^ splitmix64(pixel ^ splitmix64(sample ^ 0x9E37_79B9_7F4A_7C15)));
         let stream = splitmix64(pixel.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ seed);
-        Sampler { rng: rand_pcg::Pcg32::new(state, stream) }
+        Sampler {
+            rng: rand_pcg::Pcg32::new(state, stream),
+        }
     }
     /// A seeded stream for tests and tools.
     pub fn from_seed(seed: u64) -> Self {
-        Sampler { rng: rand_pcg::Pcg32::seed_from_u64(seed) }
+        Sampler {
+            rng: rand_pcg::Pcg32::seed_from_u64(seed),
+        }
     }
     /// Uniform in [0, 1).
     #[inline]
@@ -289,5 +306,13 @@ pub trait Integrator: Sync {
         Vec::new()
     }
     /// Trace one sample through film position (x, y) (pixels, continuous).
-    fn sample(&self, scene: &Scene, x: f32, y: f32, sampler: &mut Sampler, scratch: &mut Self::Scratch, sink: &mut SampleSink);
+    fn sample(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        scratch: &mut Self::Scratch,
+        sink: &mut SampleSink,
+    );
 }

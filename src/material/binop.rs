@@ -8,18 +8,26 @@ pub enum BinOperator {
     /// Wavelength-preserving reflectance.
     Diagonal { diag: Vec<f32> },
     /// M = diag(d) + emit ⊗ absorb (Jung eq. 5.7): O(bins).
-    RankOne { diag: Vec<f32>, absorb: Vec<f32>, emit: Vec<f32> },
+    RankOne {
+        diag: Vec<f32>,
+        absorb: Vec<f32>,
+        emit: Vec<f32>,
+    },
     /// M = diag(d) + K, K[o·n + i] non-zero only for o > i (upper triangle of the measured
     /// matrix in (excitation, emission) order).
-    Dense { diag: Vec<f32>, n: usize, k: Vec<f32> },
+    Dense {
+        diag: Vec<f32>,
+        n: usize,
+        k: Vec<f32>,
+    },
 }
 
 impl BinOperator {
     pub fn len(&self) -> usize {
         match self {
-            BinOperator::Diagonal { diag } | BinOperator::RankOne { diag, .. } | BinOperator::Dense { diag, .. } => {
-                diag.len()
-            }
+            BinOperator::Diagonal { diag }
+            | BinOperator::RankOne { diag, .. }
+            | BinOperator::Dense { diag, .. } => diag.len(),
         }
     }
     pub fn is_empty(&self) -> bool {
@@ -109,12 +117,17 @@ mod tests {
             let r: Vec<f32> = (0..n).map(|_| rng.random()).collect();
             let a: Vec<f32> = (0..n).map(|_| rng.random()).collect();
             let e: Vec<f32> = (0..n).map(|_| rng.random()).collect();
-            let op = BinOperator::RankOne { diag: r.clone(), absorb: a.clone(), emit: e.clone() };
+            let op = BinOperator::RankOne {
+                diag: r.clone(),
+                absorb: a.clone(),
+                emit: e.clone(),
+            };
             // Explicit dense M = diag(r) + e aᵀ.
             let mut m = vec![0.0f64; n * n];
             for o in 0..n {
                 for i in 0..n {
-                    m[o * n + i] = e[o] as f64 * a[i] as f64 + if o == i { r[i] as f64 } else { 0.0 };
+                    m[o * n + i] =
+                        e[o] as f64 * a[i] as f64 + if o == i { r[i] as f64 } else { 0.0 };
                 }
             }
             let t: Vec<f32> = (0..n).map(|_| rng.random::<f32>() * 3.0).collect();
@@ -129,7 +142,9 @@ mod tests {
                 assert!((outt[o] as f64 - want_t).abs() < 1e-4 * want_t.abs().max(1.0));
             }
             let dense = op.to_dense();
-            let k: Vec<f32> = (0..n * n).map(|j| if j / n > j % n { dense[j] } else { 0.0 }).collect();
+            let k: Vec<f32> = (0..n * n)
+                .map(|j| if j / n > j % n { dense[j] } else { 0.0 })
+                .collect();
             let diag: Vec<f32> = (0..n).map(|i| dense[i * n + i]).collect();
             // Dense form of only the upper-triangle part agrees on lower-triangular inputs.
             let d = BinOperator::Dense { diag, n, k };

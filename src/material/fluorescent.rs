@@ -37,7 +37,9 @@ impl FluorescentDiffuse {
             return Err("the absorption spectrum is zero on the whole wavelength domain".into());
         }
         let a = if (a_max - 1.0).abs() > 1e-3 {
-            warnings.push(format!("max of the absorption spectrum is {a_max}, not 1: normalised (Jung eq. 5.1)"));
+            warnings.push(format!(
+                "max of the absorption spectrum is {a_max}, not 1: normalised (Jung eq. 5.1)"
+            ));
             a.scaled(1.0 / a_max)
         } else {
             a
@@ -57,12 +59,29 @@ impl FluorescentDiffuse {
         let a_integral = a.integral(domain.min, domain.max) as f32;
         let a_dist = Distribution1D::from_spectrum(&a, domain, 1.0);
         let e_dist = Distribution1D::from_spectrum(&e, domain, 1.0);
-        Ok((FluorescentDiffuse { r, a, e, phi, c, domain, a_integral, a_dist, e_dist }, warnings))
+        Ok((
+            FluorescentDiffuse {
+                r,
+                a,
+                e,
+                phi,
+                c,
+                domain,
+                a_integral,
+                a_dist,
+                e_dist,
+            },
+            warnings,
+        ))
     }
 
     #[inline]
     fn uniform_density(&self, l: f32) -> f32 {
-        if self.domain.contains(l) { 1.0 / self.domain.width() } else { 0.0 }
+        if self.domain.contains(l) {
+            1.0 / self.domain.width()
+        } else {
+            0.0
+        }
     }
 }
 
@@ -154,8 +173,16 @@ mod tests {
     fn model(r: f32, c: f32, phi: f32) -> FluorescentDiffuse {
         FluorescentDiffuse::new(
             Spectrum::Constant(r),
-            Spectrum::Box { lo: 300.0, hi: 400.0, value: 1.0 },
-            Spectrum::Box { lo: 500.0, hi: 550.0, value: 1.0 / 50.0 },
+            Spectrum::Box {
+                lo: 300.0,
+                hi: 400.0,
+                value: 1.0,
+            },
+            Spectrum::Box {
+                lo: 500.0,
+                hi: 550.0,
+                value: 1.0 / 50.0,
+            },
             phi,
             c,
             DEFAULT_DOMAIN,
@@ -167,11 +194,17 @@ mod tests {
     #[test]
     fn energy_conservation_eq_5_8() {
         // ∫ f dλout ≤ 1 for every λin, with equality for r = Φ = 1.
-        for &(r, c, phi) in &[(1.0, 1.0, 1.0), (0.8, 0.5, 0.9), (0.0, 1.0, 1.0), (1.0, 0.3, 1.0)] {
+        for &(r, c, phi) in &[
+            (1.0, 1.0, 1.0),
+            (0.8, 0.5, 0.9),
+            (0.0, 1.0, 1.0),
+            (1.0, 0.3, 1.0),
+        ] {
             let m = model(r, c, phi);
             for li in (280..780).step_by(7) {
                 let li = li as f32 + 0.5;
-                let total = m.diagonal(li) + (m.e.integral(280.0, 780.0) as f32) * m.kernel(li, 525.0) / m.e.eval(525.0);
+                let total = m.diagonal(li)
+                    + (m.e.integral(280.0, 780.0) as f32) * m.kernel(li, 525.0) / m.e.eval(525.0);
                 assert!(total <= 1.0 + 1e-5, "λin {li}: {total}");
                 if r == 1.0 && phi == 1.0 {
                     assert!((total - 1.0).abs() < 1e-5);
@@ -199,16 +232,18 @@ mod tests {
 
     #[test]
     fn wavelength_sampling_histogram_matches_pdf() {
-        let m = Material::Fluorescent(FluorescentDiffuse::new(
-            Spectrum::Constant(0.3),
-            Spectrum::gaussian_fwhm(400.0, 40.0, 1.0),
-            Spectrum::gaussian_fwhm(520.0, 30.0, 1.0),
-            0.9,
-            0.7,
-            DEFAULT_DOMAIN,
-        )
-        .unwrap()
-        .0);
+        let m = Material::Fluorescent(
+            FluorescentDiffuse::new(
+                Spectrum::Constant(0.3),
+                Spectrum::gaussian_fwhm(400.0, 40.0, 1.0),
+                Spectrum::gaussian_fwhm(520.0, 30.0, 1.0),
+                0.9,
+                0.7,
+                DEFAULT_DOMAIN,
+            )
+            .unwrap()
+            .0,
+        );
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
         for mode in [Importance, Uniform] {
             for camera in [true, false] {
@@ -255,7 +290,10 @@ mod tests {
                         .sum::<f32>()
                         * 0.1;
                     let e = mass * n as f32;
-                    assert!((h as f32 - e).abs() < 5.0 * e.max(1.0).sqrt() + 2.0, "bin {b}: {h} vs {e}");
+                    assert!(
+                        (h as f32 - e).abs() < 5.0 * e.max(1.0).sqrt() + 2.0,
+                        "bin {b}: {h} vs {e}"
+                    );
                 }
             }
         }
@@ -265,8 +303,16 @@ mod tests {
     fn normalisation_warns() {
         let (m, w) = FluorescentDiffuse::new(
             Spectrum::Constant(0.5),
-            Spectrum::Box { lo: 300.0, hi: 400.0, value: 2.0 },
-            Spectrum::Box { lo: 500.0, hi: 550.0, value: 1.0 },
+            Spectrum::Box {
+                lo: 300.0,
+                hi: 400.0,
+                value: 2.0,
+            },
+            Spectrum::Box {
+                lo: 500.0,
+                hi: 550.0,
+                value: 1.0,
+            },
             1.0,
             1.0,
             DEFAULT_DOMAIN,

@@ -38,6 +38,8 @@ impl Bbrrdf for Lambert {
         l_out
     }
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
-        BinOperator::Diagonal { diag: self.reflectance.to_bins(grid) }
+        BinOperator::Diagonal {
+            diag: self.reflectance.to_bins(grid),
+        }
     }
 }

@@ -18,7 +18,17 @@ pub use reradiation::Reradiation;
 use crate::spectrum::BinGrid;
 
 /// How the new wavelength is chosen at a fluorescent vertex (Jung 7.1.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum WavelengthSampling {
     /// Emission spectrum on light paths, absorption spectrum on camera paths (Jung 5.3.2).
@@ -96,59 +106,121 @@ impl Material {
     /// the diagonal when `same` is true (the δ term's coefficient).
     #[inline]
     pub fn spectral(&self, l_in: f32, l_out: f32, same: bool) -> f32 {
-        if same { self.diagonal(l_in) } else { self.kernel(l_in, l_out) }
+        if same {
+            self.diagonal(l_in)
+        } else {
+            self.kernel(l_in, l_out)
+        }
     }
 
     /// Sample the incident wavelength at a camera-path vertex whose exitant wavelength is
     /// `l_out` (Jung 5.3: decide with P_c, then sample the absorption side).
     #[inline]
-    pub fn sample_wavelength_camera(&self, l_out: f32, u: [f32; 2], mode: WavelengthSampling) -> ShiftSample {
+    pub fn sample_wavelength_camera(
+        &self,
+        l_out: f32,
+        u: [f32; 2],
+        mode: WavelengthSampling,
+    ) -> ShiftSample {
         let p = self.fluorescence_probability_camera(l_out);
         if p > 0.0 && u[0] < p {
             let l_in = self.sample_shift_density_camera(l_out, u[1], mode);
             let pdf = p * self.shift_density_camera(l_out, l_in, mode);
             let f = self.kernel(l_in, l_out);
             let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
-            ShiftSample { lambda: l_in, pdf, shifted: true, weight }
+            ShiftSample {
+                lambda: l_in,
+                pdf,
+                shifted: true,
+                weight,
+            }
         } else {
             let pdf = 1.0 - p;
-            let weight = if pdf > 0.0 { self.diagonal(l_out) / pdf } else { 0.0 };
-            ShiftSample { lambda: l_out, pdf, shifted: false, weight }
+            let weight = if pdf > 0.0 {
+                self.diagonal(l_out) / pdf
+            } else {
+                0.0
+            };
+            ShiftSample {
+                lambda: l_out,
+                pdf,
+                shifted: false,
+                weight,
+            }
         }
     }
 
     /// Sample the exitant wavelength at a light-path vertex whose incident wavelength is `l_in`
     /// (Jung 5.3: decide with P_l, then sample the emission side).
     #[inline]
-    pub fn sample_wavelength_light(&self, l_in: f32, u: [f32; 2], mode: WavelengthSampling) -> ShiftSample {
+    pub fn sample_wavelength_light(
+        &self,
+        l_in: f32,
+        u: [f32; 2],
+        mode: WavelengthSampling,
+    ) -> ShiftSample {
         let p = self.fluorescence_probability_light(l_in);
         if p > 0.0 && u[0] < p {
             let l_out = self.sample_shift_density_light(l_in, u[1], mode);
             let pdf = p * self.shift_density_light(l_in, l_out, mode);
             let f = self.kernel(l_in, l_out);
             let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
-            ShiftSample { lambda: l_out, pdf, shifted: true, weight }
+            ShiftSample {
+                lambda: l_out,
+                pdf,
+                shifted: true,
+                weight,
+            }
         } else {
             let pdf = 1.0 - p;
-            let weight = if pdf > 0.0 { self.diagonal(l_in) / pdf } else { 0.0 };
-            ShiftSample { lambda: l_in, pdf, shifted: false, weight }
+            let weight = if pdf > 0.0 {
+                self.diagonal(l_in) / pdf
+            } else {
+                0.0
+            };
+            ShiftSample {
+                lambda: l_in,
+                pdf,
+                shifted: false,
+                weight,
+            }
         }
     }
 
     /// Probability (discrete or density) that a camera path at this vertex chooses `l_in` given
     /// `l_out`; `same` tells whether the pair is the δ (no-shift) event.
     #[inline]
-    pub fn pdf_wavelength_camera(&self, l_out: f32, l_in: f32, same: bool, mode: WavelengthSampling) -> f32 {
+    pub fn pdf_wavelength_camera(
+        &self,
+        l_out: f32,
+        l_in: f32,
+        same: bool,
+        mode: WavelengthSampling,
+    ) -> f32 {
         let p = self.fluorescence_probability_camera(l_out);
-        if same { 1.0 - p } else { p * self.shift_density_camera(l_out, l_in, mode) }
+        if same {
+            1.0 - p
+        } else {
+            p * self.shift_density_camera(l_out, l_in, mode)
+        }
     }
 
     /// Probability (discrete or density) that a light path at this vertex chooses `l_out` given
     /// `l_in`.
     #[inline]
-    pub fn pdf_wavelength_light(&self, l_in: f32, l_out: f32, same: bool, mode: WavelengthSampling) -> f32 {
+    pub fn pdf_wavelength_light(
+        &self,
+        l_in: f32,
+        l_out: f32,
+        same: bool,
+        mode: WavelengthSampling,
+    ) -> f32 {
         let p = self.fluorescence_probability_light(l_in);
-        if same { 1.0 - p } else { p * self.shift_density_light(l_in, l_out, mode) }
+        if same {
+            1.0 - p
+        } else {
+            p * self.shift_density_light(l_in, l_out, mode)
+        }
     }
 }
 
@@ -198,5 +270,8 @@ impl Bbrrdf for Material {
 pub(crate) fn average_fn(f: impl Fn(f32) -> f32, a: f32, b: f32) -> f32 {
     let n = 64;
     let h = (b - a) / n as f32;
-    (0..n).map(|i| f(a + (i as f32 + 0.5) * h) as f64).sum::<f64>() as f32 / n as f32
+    (0..n)
+        .map(|i| f(a + (i as f32 + 0.5) * h) as f64)
+        .sum::<f64>() as f32
+        / n as f32
 }

@@ -32,7 +32,11 @@ pub struct Reradiation {
 impl Reradiation {
     /// Parse a BFC-450 matrix file. Errors name the line and what is wrong.
     pub fn parse_bfc(text: &str, domain: Domain) -> Result<Self, String> {
-        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty());
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty());
         // Header: find the "em_lo em_hi step n_ex ex_lo ex_step" line.
         let mut header = None;
         for (no, l) in lines.by_ref() {
@@ -45,19 +49,28 @@ impl Reradiation {
                     header = Some((no, v));
                     break;
                 }
-                _ => return Err(format!("line {no}: expected the header 'em_lo em_hi step n_ex ex_lo ex_step', found '{l}'")),
+                _ => {
+                    return Err(format!(
+                        "line {no}: expected the header 'em_lo em_hi step n_ex ex_lo ex_step', found '{l}'"
+                    ));
+                }
             }
         }
-        let (hno, h) = header.ok_or("no header line 'em_lo em_hi step n_ex ex_lo ex_step' found")?;
-        let (em_lo, em_hi, step, n_ex, ex_lo, ex_step) = (h[0], h[1], h[2], h[3] as usize, h[4], h[5]);
-        if step <= 0.0 || (step - ex_step).abs() > 1e-6 || em_hi < em_lo || n_ex == 0 || n_ex > 1000 {
+        let (hno, h) =
+            header.ok_or("no header line 'em_lo em_hi step n_ex ex_lo ex_step' found")?;
+        let (em_lo, em_hi, step, n_ex, ex_lo, ex_step) =
+            (h[0], h[1], h[2], h[3] as usize, h[4], h[5]);
+        if step <= 0.0 || (step - ex_step).abs() > 1e-6 || em_hi < em_lo || n_ex == 0 || n_ex > 1000
+        {
             return Err(format!("line {hno}: inconsistent header {h:?}"));
         }
         let n_em = ((em_hi - em_lo) / step).round() as usize + 1;
         let (cno, cols) = lines.next().ok_or("missing the 'r:c:' column line")?;
         let cols: Vec<&str> = cols.split_whitespace().collect();
         if cols.first() != Some(&"r:c:") || cols.len() != n_ex + 1 {
-            return Err(format!("line {cno}: expected 'r:c:' followed by {n_ex} excitation wavelengths"));
+            return Err(format!(
+                "line {cno}: expected 'r:c:' followed by {n_ex} excitation wavelengths"
+            ));
         }
         let mut d = vec![0.0f32; n_em * n_ex];
         let mut rows_seen = 0;
@@ -68,12 +81,18 @@ impl Reradiation {
             let v: Result<Vec<f32>, _> = l.split_whitespace().map(|x| x.parse::<f32>()).collect();
             let v = v.map_err(|_| format!("line {no}: a value is not a number"))?;
             if v.len() != n_ex + 1 {
-                return Err(format!("line {no}: expected {} values, found {}", n_ex + 1, v.len()));
+                return Err(format!(
+                    "line {no}: expected {} values, found {}",
+                    n_ex + 1,
+                    v.len()
+                ));
             }
             let lo = v[0];
             let o = ((lo - em_lo) / step).round();
             if o < 0.0 || o as usize >= n_em || (em_lo + o * step - lo).abs() > 1e-3 {
-                return Err(format!("line {no}: emission wavelength {lo} is not on the header's grid"));
+                return Err(format!(
+                    "line {no}: emission wavelength {lo} is not on the header's grid"
+                ));
             }
             let o = o as usize;
             for i in 0..n_ex {
@@ -93,7 +112,15 @@ impl Reradiation {
         Ok(Self::from_matrix(em_lo, ex_lo, step, n_em, n_ex, d, domain))
     }
 
-    fn from_matrix(em_lo: f32, ex_lo: f32, step: f32, n_em: usize, n_ex: usize, d: Vec<f32>, domain: Domain) -> Self {
+    fn from_matrix(
+        em_lo: f32,
+        ex_lo: f32,
+        step: f32,
+        n_em: usize,
+        n_ex: usize,
+        d: Vec<f32>,
+        domain: Domain,
+    ) -> Self {
         let mut m = Reradiation {
             em_lo,
             ex_lo,
@@ -107,8 +134,12 @@ impl Reradiation {
             row_total: vec![],
             row_cdf: vec![],
         };
-        let em_w: Vec<f32> = (0..n_em).map(|o| m.cell_width(em_lo + o as f32 * step)).collect();
-        let ex_w: Vec<f32> = (0..n_ex).map(|i| m.cell_width(ex_lo + i as f32 * step)).collect();
+        let em_w: Vec<f32> = (0..n_em)
+            .map(|o| m.cell_width(em_lo + o as f32 * step))
+            .collect();
+        let ex_w: Vec<f32> = (0..n_ex)
+            .map(|i| m.cell_width(ex_lo + i as f32 * step))
+            .collect();
         for i in 0..n_ex {
             let w: Vec<f32> = (0..n_em).map(|o| m.off(o, i) * em_w[o] / step).collect();
             let (t, c) = cdf(&w);
@@ -129,7 +160,11 @@ impl Reradiation {
     fn off(&self, o: usize, i: usize) -> f32 {
         let lo = self.em_lo + o as f32 * self.step;
         let li = self.ex_lo + i as f32 * self.step;
-        if (lo - li).abs() < 1e-3 { 0.0 } else { self.d[o * self.n_ex + i] }
+        if (lo - li).abs() < 1e-3 {
+            0.0
+        } else {
+            self.d[o * self.n_ex + i]
+        }
     }
 
     fn cell_width(&self, center: f32) -> f32 {
@@ -181,7 +216,11 @@ fn sample_cdf(c: &[f32], u: f32) -> (usize, f32) {
     let k = c.partition_point(|&x| x <= u).min(c.len() - 1);
     let lo = if k == 0 { 0.0 } else { c[k - 1] };
     let hi = c[k];
-    let t = if hi > lo { ((u - lo) / (hi - lo)).clamp(0.0, 0.999_999) } else { 0.5 };
+    let t = if hi > lo {
+        ((u - lo) / (hi - lo)).clamp(0.0, 0.999_999)
+    } else {
+        0.5
+    };
     (k, t)
 }
 
@@ -217,22 +256,40 @@ impl Bbrrdf for Reradiation {
         self.col_total.iter().any(|&t| t > 0.0)
     }
     fn fluorescence_probability_light(&self, l_in: f32) -> f32 {
-        let Some(i) = self.ex_index(l_in) else { return 0.0 };
+        let Some(i) = self.ex_index(l_in) else {
+            return 0.0;
+        };
         let f = self.col_total[i];
-        if f <= 0.0 { 0.0 } else { f / (f + self.diagonal(l_in)) }
+        if f <= 0.0 {
+            0.0
+        } else {
+            f / (f + self.diagonal(l_in))
+        }
     }
     fn fluorescence_probability_camera(&self, l_out: f32) -> f32 {
-        let Some(o) = self.em_index(l_out) else { return 0.0 };
+        let Some(o) = self.em_index(l_out) else {
+            return 0.0;
+        };
         let g = self.row_total[o];
-        if g <= 0.0 { 0.0 } else { g / (g + self.diagonal(l_out)) }
+        if g <= 0.0 {
+            0.0
+        } else {
+            g / (g + self.diagonal(l_out))
+        }
     }
     fn shift_density_light(&self, l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Uniform => {
-                if self.domain.contains(l_out) { 1.0 / self.domain.width() } else { 0.0 }
+                if self.domain.contains(l_out) {
+                    1.0 / self.domain.width()
+                } else {
+                    0.0
+                }
             }
             WavelengthSampling::Importance => {
-                let Some(i) = self.ex_index(l_in) else { return 0.0 };
+                let Some(i) = self.ex_index(l_in) else {
+                    return 0.0;
+                };
                 let t = self.col_total[i];
                 if t <= 0.0 {
                     return 0.0;
@@ -244,10 +301,16 @@ impl Bbrrdf for Reradiation {
     fn shift_density_camera(&self, l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Uniform => {
-                if self.domain.contains(l_in) { 1.0 / self.domain.width() } else { 0.0 }
+                if self.domain.contains(l_in) {
+                    1.0 / self.domain.width()
+                } else {
+                    0.0
+                }
             }
             WavelengthSampling::Importance => {
-                let Some(o) = self.em_index(l_out) else { return 0.0 };
+                let Some(o) = self.em_index(l_out) else {
+                    return 0.0;
+                };
                 let t = self.row_total[o];
                 if t <= 0.0 {
                     return 0.0;
@@ -278,7 +341,9 @@ impl Bbrrdf for Reradiation {
     /// the piecewise-constant cells on an integer-nm grid).
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         let n = grid.len();
-        let diag: Vec<f32> = (0..n).map(|b| average_fn(|l| self.diagonal(l), grid.edge(b), grid.edge(b + 1))).collect();
+        let diag: Vec<f32> = (0..n)
+            .map(|b| average_fn(|l| self.diagonal(l), grid.edge(b), grid.edge(b + 1)))
+            .collect();
         let mut k = vec![0.0f32; n * n];
         let nm = |b: usize| {
             let (a, z) = (grid.edge(b), grid.edge(b + 1));
@@ -330,22 +395,48 @@ mod tests {
         let e = Reradiation::parse_bfc(&bad, DEFAULT_DOMAIN).unwrap_err();
         assert!(e.contains("line"), "{e}");
         let short: String = GOLFYE.lines().take(20).collect::<Vec<_>>().join("\n");
-        assert!(Reradiation::parse_bfc(&short, DEFAULT_DOMAIN).unwrap_err().contains("rows"));
+        assert!(
+            Reradiation::parse_bfc(&short, DEFAULT_DOMAIN)
+                .unwrap_err()
+                .contains("rows")
+        );
     }
 
     #[test]
     fn shift_densities_integrate_to_one() {
         let m = Reradiation::parse_bfc(GOLFYE, DEFAULT_DOMAIN).unwrap();
         for l in [330.0, 400.0, 450.0] {
-            let s: f32 = (0..5000).map(|k| m.shift_density_light(l, 280.0 + 0.1 * (k as f32 + 0.5), WavelengthSampling::Importance)).sum::<f32>() * 0.1;
+            let s: f32 = (0..5000)
+                .map(|k| {
+                    m.shift_density_light(
+                        l,
+                        280.0 + 0.1 * (k as f32 + 0.5),
+                        WavelengthSampling::Importance,
+                    )
+                })
+                .sum::<f32>()
+                * 0.1;
             assert!((s - 1.0).abs() < 1e-3, "{l}: {s}");
             for j in 0..200 {
-                let lo = m.sample_shift_density_light(l, (j as f32 + 0.5) / 200.0, WavelengthSampling::Importance);
+                let lo = m.sample_shift_density_light(
+                    l,
+                    (j as f32 + 0.5) / 200.0,
+                    WavelengthSampling::Importance,
+                );
                 assert!(m.shift_density_light(l, lo, WavelengthSampling::Importance) > 0.0);
             }
         }
         for l in [520.0, 600.0] {
-            let s: f32 = (0..5000).map(|k| m.shift_density_camera(l, 280.0 + 0.1 * (k as f32 + 0.5), WavelengthSampling::Importance)).sum::<f32>() * 0.1;
+            let s: f32 = (0..5000)
+                .map(|k| {
+                    m.shift_density_camera(
+                        l,
+                        280.0 + 0.1 * (k as f32 + 0.5),
+                        WavelengthSampling::Importance,
+                    )
+                })
+                .sum::<f32>()
+                * 0.1;
             assert!((s - 1.0).abs() < 1e-3, "{l}: {s}");
         }
     }
@@ -363,8 +454,19 @@ mod tests {
         let mut out = vec![0.0; g.len()];
         op.apply(&t, &mut out);
         let total: f32 = (0..g.len()).map(|o| out[o] * g.bin_width(o)).sum();
-        let want = (0..g.len()).map(|o| average_fn(|lo| average_fn(|li| m.kernel(li, lo), g.edge(i), g.edge(i + 1)), g.edge(o), g.edge(o + 1)) * g.bin_width(o)).sum::<f32>()
+        let want = (0..g.len())
+            .map(|o| {
+                average_fn(
+                    |lo| average_fn(|li| m.kernel(li, lo), g.edge(i), g.edge(i + 1)),
+                    g.edge(o),
+                    g.edge(o + 1),
+                ) * g.bin_width(o)
+            })
+            .sum::<f32>()
             * g.bin_width(i);
-        assert!((total - want).abs() < 2e-3 * want.max(1e-3), "{total} vs {want}");
+        assert!(
+            (total - want).abs() < 2e-3 * want.max(1e-3),
+            "{total} vs {want}"
+        );
     }
 }

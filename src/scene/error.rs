@@ -13,7 +13,11 @@ pub struct InputError {
 
 impl InputError {
     pub fn new(file: &Path, path: impl Into<String>, message: impl Into<String>) -> Self {
-        InputError { file: file.to_path_buf(), path: path.into(), message: message.into() }
+        InputError {
+            file: file.to_path_buf(),
+            path: path.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -22,7 +26,13 @@ impl fmt::Display for InputError {
         if self.path.is_empty() {
             write!(f, "{}: {}", self.file.display(), self.message)
         } else {
-            write!(f, "{}: field `{}`: {}", self.file.display(), self.path, self.message)
+            write!(
+                f,
+                "{}: field `{}`: {}",
+                self.file.display(),
+                self.path,
+                self.message
+            )
         }
     }
 }
@@ -30,7 +40,10 @@ impl fmt::Display for InputError {
 impl std::error::Error for InputError {}
 
 /// Deserialize `T` from JSON text with the JSON path of any error.
-pub fn from_json_str<T: serde::de::DeserializeOwned>(file: &Path, text: &str) -> Result<T, InputError> {
+pub fn from_json_str<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    text: &str,
+) -> Result<T, InputError> {
     let de = &mut serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
@@ -49,7 +62,11 @@ pub fn from_json_value<T: serde::de::DeserializeOwned>(
     serde_path_to_error::deserialize(v).map_err(|e| {
         let p = e.path().to_string();
         let inner = e.into_inner();
-        let path = if p == "." { base.to_string() } else { format!("{base}.{p}") };
+        let path = if p == "." {
+            base.to_string()
+        } else {
+            format!("{base}.{p}")
+        };
         InputError::new(file, path, format!("{inner}"))
     })
 }

@@ -10,7 +10,11 @@ use glam::Vec3;
 pub enum LightShape {
     /// Triangles (indices into the scene's triangle list) with an area CDF.
     Triangles { prims: Vec<u32>, cdf: Vec<f32> },
-    Sphere { prim: u32, sphere: Sphere, flip: bool },
+    Sphere {
+        prim: u32,
+        sphere: Sphere,
+        flip: bool,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -48,15 +52,28 @@ impl AreaLight {
         domain: Domain,
     ) -> Self {
         let integral = spectrum.integral(domain.min, domain.max);
-        let power = std::f64::consts::PI * area as f64 * integral * if two_sided { 2.0 } else { 1.0 };
+        let power =
+            std::f64::consts::PI * area as f64 * integral * if two_sided { 2.0 } else { 1.0 };
         let wavelengths = Distribution1D::from_spectrum(&spectrum, domain, 1.0);
-        AreaLight { name, shape, spectrum, two_sided, area, power, wavelengths }
+        AreaLight {
+            name,
+            shape,
+            spectrum,
+            two_sided,
+            area,
+            power,
+            wavelengths,
+        }
     }
 
     /// Emitted radiance at λ leaving a point with oriented normal `n` in direction `w`.
     #[inline]
     pub fn le(&self, l: f32, n: Vec3, w: Vec3) -> f32 {
-        if self.two_sided || n.dot(w) > 0.0 { self.spectrum.eval(l) } else { 0.0 }
+        if self.two_sided || n.dot(w) > 0.0 {
+            self.spectrum.eval(l)
+        } else {
+            0.0
+        }
     }
 
     /// Whether light leaves the surface with normal `n` in direction `w` (spectrum aside).
@@ -72,7 +89,12 @@ impl AreaLight {
                 let k = cdf.partition_point(|&c| c <= u).min(prims.len() - 1);
                 let tri = &tris[prims[k] as usize];
                 let p = tri.sample_uniform(v[0], v[1]);
-                LightPoint { p, n: tri.normal_raw().normalize(), prim: prims[k], pdf_area: 1.0 / self.area }
+                LightPoint {
+                    p,
+                    n: tri.normal_raw().normalize(),
+                    prim: prims[k],
+                    pdf_area: 1.0 / self.area,
+                }
             }
             LightShape::Sphere { prim, sphere, flip } => {
                 let z = 1.0 - 2.0 * v[0];
@@ -80,7 +102,12 @@ impl AreaLight {
                 let phi = 2.0 * std::f32::consts::PI * v[1];
                 let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
                 let n = if *flip { -d } else { d };
-                LightPoint { p: sphere.center + d * sphere.radius, n, prim: *prim, pdf_area: 1.0 / self.area }
+                LightPoint {
+                    p: sphere.center + d * sphere.radius,
+                    n,
+                    prim: *prim,
+                    pdf_area: 1.0 / self.area,
+                }
             }
         }
     }

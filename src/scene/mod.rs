@@ -200,7 +200,11 @@ fn finite3(file: &Path, path: &str, a: [f32; 3]) -> Result<Vec3, InputError> {
     if a.iter().all(|x| x.is_finite()) {
         Ok(v3(a))
     } else {
-        Err(InputError::new(file, path, format!("coordinates must be finite numbers, got {a:?}")))
+        Err(InputError::new(
+            file,
+            path,
+            format!("coordinates must be finite numbers, got {a:?}"),
+        ))
     }
 }
 
@@ -222,14 +226,20 @@ impl Scene {
             None => DEFAULT_DOMAIN,
             Some([a, b]) => {
                 if !(a.is_finite() && b.is_finite() && a >= 0.0 && a < b) {
-                    return Err(err("domain", format!("needs 0 ≤ min < max, got [{a}, {b}]")));
+                    return Err(err(
+                        "domain",
+                        format!("needs 0 ≤ min < max, got [{a}, {b}]"),
+                    ));
                 }
                 Domain { min: a, max: b }
             }
         };
         let observer = Observer::new(domain);
         if observer.range.width() <= 0.0 {
-            return Err(err("domain", "does not overlap the observer's 360–830 nm".into()));
+            return Err(err(
+                "domain",
+                "does not overlap the observer's 360–830 nm".into(),
+            ));
         }
 
         // Camera.
@@ -238,22 +248,47 @@ impl Scene {
         let target = finite3(path, "camera.target", c.target)?;
         let up = finite3(path, "camera.up", c.up)?;
         if (target - origin).length() <= 0.0 {
-            return Err(err("camera.target", "must differ from camera.origin".into()));
+            return Err(err(
+                "camera.target",
+                "must differ from camera.origin".into(),
+            ));
         }
         if (target - origin).normalize().cross(up).length() < 1e-6 {
-            return Err(err("camera.up", "must not be parallel to the viewing direction".into()));
+            return Err(err(
+                "camera.up",
+                "must not be parallel to the viewing direction".into(),
+            ));
         }
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            return Err(err("camera.fov", format!("must be in (0, 180) degrees, got {}", c.fov)));
+            return Err(err(
+                "camera.fov",
+                format!("must be in (0, 180) degrees, got {}", c.fov),
+            ));
         }
         if c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384 {
-            return Err(err("camera.width", format!("resolution must be 1–16384, got {}×{}", c.width, c.height)));
+            return Err(err(
+                "camera.width",
+                format!("resolution must be 1–16384, got {}×{}", c.width, c.height),
+            ));
         }
-        let camera = Camera::look_at(origin, target, up, c.fov, c.fov_axis == FovAxis::X, c.width, c.height);
+        let camera = Camera::look_at(
+            origin,
+            target,
+            up,
+            c.fov,
+            c.fov_axis == FovAxis::X,
+            c.width,
+            c.height,
+        );
 
         // Spectra and materials.
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let mut ctx = SpectrumContext { file: path, dir: dir.clone(), named: BTreeMap::new(), domain };
+        let mut ctx = SpectrumContext {
+            file: path,
+            dir: dir.clone(),
+            named: BTreeMap::new(),
+            domain,
+        };
         for (name, v) in &f.spectra {
             let s = ctx.parse(v, &format!("spectra.{name}"))?;
             ctx.named.insert(name.clone(), s);
@@ -267,34 +302,57 @@ impl Scene {
                 MaterialDesc::Lambert { reflectance } => {
                     let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
                     if r.max_value(domain) > 1.0 {
-                        warnings.push(format!("{base}.reflectance exceeds 1: the surface creates energy"));
+                        warnings.push(format!(
+                            "{base}.reflectance exceeds 1: the surface creates energy"
+                        ));
                     }
                     Material::Lambert(Lambert { reflectance: r })
                 }
-                MaterialDesc::FluorescentDiffuse { reflectance, absorption, emission, quantum_yield, concentration } => {
-                    for (v, n) in [(quantum_yield, "quantum_yield"), (concentration, "concentration")] {
+                MaterialDesc::FluorescentDiffuse {
+                    reflectance,
+                    absorption,
+                    emission,
+                    quantum_yield,
+                    concentration,
+                } => {
+                    for (v, n) in [
+                        (quantum_yield, "quantum_yield"),
+                        (concentration, "concentration"),
+                    ] {
                         if !(0.0..=1.0).contains(&v) {
-                            return Err(err(&format!("{base}.{n}"), format!("must be in [0, 1], got {v}")));
+                            return Err(err(
+                                &format!("{base}.{n}"),
+                                format!("must be in [0, 1], got {v}"),
+                            ));
                         }
                     }
                     let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
                     let a = ctx.parse(&absorption, &format!("{base}.absorption"))?;
                     let e = ctx.parse(&emission, &format!("{base}.emission"))?;
                     if r.max_value(domain) > 1.0 {
-                        warnings.push(format!("{base}.reflectance exceeds 1: the surface creates energy"));
+                        warnings.push(format!(
+                            "{base}.reflectance exceeds 1: the surface creates energy"
+                        ));
                     }
-                    let (m, w) = FluorescentDiffuse::new(r, a, e, quantum_yield, concentration, domain)
-                        .map_err(|m| err(&base, m))?;
+                    let (m, w) =
+                        FluorescentDiffuse::new(r, a, e, quantum_yield, concentration, domain)
+                            .map_err(|m| err(&base, m))?;
                     warnings.extend(w.into_iter().map(|w| format!("{base}: {w}")));
                     Material::Fluorescent(m)
                 }
                 MaterialDesc::Reradiation { file } => {
                     let full = dir.join(&file);
                     let text = std::fs::read_to_string(&full).map_err(|e| {
-                        err(&format!("{base}.file"), format!("cannot read '{}': {e}", full.display()))
+                        err(
+                            &format!("{base}.file"),
+                            format!("cannot read '{}': {e}", full.display()),
+                        )
                     })?;
                     let m = Reradiation::parse_bfc(&text, domain).map_err(|m| {
-                        err(&format!("{base}.file"), format!("malformed BFC file '{}': {m}", full.display()))
+                        err(
+                            &format!("{base}.file"),
+                            format!("malformed BFC file '{}': {m}", full.display()),
+                        )
                     })?;
                     Material::Reradiation(m)
                 }
@@ -309,10 +367,16 @@ impl Scene {
             b.add_shape(path, &dir, si, s, &ctx, &material_names, domain)?;
         }
         if b.lights.is_empty() {
-            return Err(err("shapes", "the scene has no light: give at least one shape an `emission`".into()));
+            return Err(err(
+                "shapes",
+                "the scene has no light: give at least one shape an `emission`".into(),
+            ));
         }
         if b.lights.iter().all(|l| l.power <= 0.0) {
-            return Err(err("shapes", "every light emits zero power over the wavelength domain".into()));
+            return Err(err(
+                "shapes",
+                "every light emits zero power over the wavelength domain".into(),
+            ));
         }
         let total: f64 = b.lights.iter().map(|l| l.power).sum();
         let mut acc = 0.0;
@@ -365,7 +429,14 @@ impl Scene {
         let p = ray.at(h.t);
         let info = self.prims[h.prim as usize];
         let n = self.normal(h.prim, p);
-        Some(Interaction { p, n, t: h.t, prim: h.prim, material: info.material, light: info.light })
+        Some(Interaction {
+            p,
+            n,
+            t: h.t,
+            prim: h.prim,
+            material: info.material,
+            light: info.light,
+        })
     }
 
     /// Whether anything blocks the segment of length `t_max`.
@@ -391,7 +462,10 @@ impl Scene {
     /// Pick a light ∝ power: (index, probability).
     #[inline]
     pub fn sample_light(&self, u: f32) -> (usize, f32) {
-        let i = self.light_cdf.partition_point(|&c| c <= u).min(self.lights.len() - 1);
+        let i = self
+            .light_cdf
+            .partition_point(|&c| c <= u)
+            .min(self.lights.len() - 1);
         (i, self.light_pmf[i])
     }
 
@@ -448,22 +522,54 @@ impl Builder {
     ) -> Result<(), InputError> {
         let base = format!("shapes[{si}]");
         let err = |p: &str, m: String| {
-            InputError::new(file, if p.is_empty() { base.clone() } else { format!("{base}.{p}") }, m)
+            InputError::new(
+                file,
+                if p.is_empty() {
+                    base.clone()
+                } else {
+                    format!("{base}.{p}")
+                },
+                m,
+            )
         };
         let material = match &s.material {
             None => NONE,
-            Some(name) => material_names.iter().position(|n| n == name).map(|i| i as u32).ok_or_else(|| {
-                err("material", format!("unknown material '{name}' (defined: {})", material_names.join(", ")))
-            })?,
+            Some(name) => material_names
+                .iter()
+                .position(|n| n == name)
+                .map(|i| i as u32)
+                .ok_or_else(|| {
+                    err(
+                        "material",
+                        format!(
+                            "unknown material '{name}' (defined: {})",
+                            material_names.join(", ")
+                        ),
+                    )
+                })?,
         };
         if material == NONE && s.emission.is_none() {
-            return Err(err("material", "a shape needs a `material`, an `emission`, or both".into()));
+            return Err(err(
+                "material",
+                "a shape needs a `material`, an `emission`, or both".into(),
+            ));
         }
         let shape_id = self.shapes.len() as u32;
         let name = s.name.clone().unwrap_or_else(|| format!("shape{si}"));
-        self.shapes.push(ShapeInfo { name: name.clone(), material });
-        let light_id = if s.emission.is_some() { self.lights.len() as u32 } else { NONE };
-        let info = PrimInfo { material, light: light_id, shape: shape_id };
+        self.shapes.push(ShapeInfo {
+            name: name.clone(),
+            material,
+        });
+        let light_id = if s.emission.is_some() {
+            self.lights.len() as u32
+        } else {
+            NONE
+        };
+        let info = PrimInfo {
+            material,
+            light: light_id,
+            shape: shape_id,
+        };
 
         // Fields not used by this kind are errors, so typos do not pass silently.
         let used: &[&str] = match s.kind {
@@ -487,10 +593,23 @@ impl Builder {
         ];
         for (f, p) in present {
             if p && !used.contains(&f) {
-                return Err(err(f, format!("not a field of a {:?} shape (fields: {})", s.kind, used.join(", "))));
+                return Err(err(
+                    f,
+                    format!(
+                        "not a field of a {:?} shape (fields: {})",
+                        s.kind,
+                        used.join(", ")
+                    ),
+                ));
             }
         }
-        let need = |o: bool, f: &str| if o { Ok(()) } else { Err(err(f, format!("required for a {:?} shape", s.kind))) };
+        let need = |o: bool, f: &str| {
+            if o {
+                Ok(())
+            } else {
+                Err(err(f, format!("required for a {:?} shape", s.kind)))
+            }
+        };
 
         let first_tri = self.triangles.len();
         let mut tris: Vec<Triangle> = Vec::new();
@@ -513,7 +632,10 @@ impl Builder {
                 let lo = finite3(file, &format!("{base}.min"), s.min.unwrap())?;
                 let hi = finite3(file, &format!("{base}.max"), s.max.unwrap())?;
                 if !(lo.cmplt(hi).all()) {
-                    return Err(err("max", format!("box needs min < max on every axis, got {lo} and {hi}")));
+                    return Err(err(
+                        "max",
+                        format!("box needs min < max on every axis, got {lo} and {hi}"),
+                    ));
                 }
                 tris.extend(box_triangles(lo, hi));
             }
@@ -525,7 +647,10 @@ impl Builder {
                 if !(r > 0.0 && r.is_finite()) {
                     return Err(err("radius", format!("must be a positive number, got {r}")));
                 }
-                sphere = Some(Sphere { center: c, radius: r });
+                sphere = Some(Sphere {
+                    center: c,
+                    radius: r,
+                });
             }
             ShapeKind::Triangles => {
                 need(s.vertices.is_some(), "vertices")?;
@@ -536,9 +661,16 @@ impl Builder {
                 }
                 for (k, idx) in s.indices.as_ref().unwrap().iter().enumerate() {
                     if let Some(bad) = idx.iter().find(|&&i| i as usize >= v.len()) {
-                        return Err(err(&format!("indices[{k}]"), format!("index {bad} out of range ({} vertices)", v.len())));
+                        return Err(err(
+                            &format!("indices[{k}]"),
+                            format!("index {bad} out of range ({} vertices)", v.len()),
+                        ));
                     }
-                    tris.push(Triangle::new(v3(v[idx[0] as usize]), v3(v[idx[1] as usize]), v3(v[idx[2] as usize])));
+                    tris.push(Triangle::new(
+                        v3(v[idx[0] as usize]),
+                        v3(v[idx[1] as usize]),
+                        v3(v[idx[2] as usize]),
+                    ));
                 }
             }
             ShapeKind::Obj => {
@@ -547,43 +679,79 @@ impl Builder {
                 let scale = s.scale.unwrap_or(1.0);
                 let tr = v3(s.translate.unwrap_or([0.0; 3]));
                 if !(scale.is_finite() && scale != 0.0) {
-                    return Err(err("scale", format!("must be a non-zero finite number, got {scale}")));
+                    return Err(err(
+                        "scale",
+                        format!("must be a non-zero finite number, got {scale}"),
+                    ));
                 }
-                let (models, _) = tobj::load_obj(&full, &tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() })
-                    .map_err(|e| err("file", format!("cannot load OBJ '{}': {e}", full.display())))?;
+                let (models, _) = tobj::load_obj(
+                    &full,
+                    &tobj::LoadOptions {
+                        triangulate: true,
+                        single_index: false,
+                        ..Default::default()
+                    },
+                )
+                .map_err(|e| err("file", format!("cannot load OBJ '{}': {e}", full.display())))?;
                 for m in models {
                     let pos = &m.mesh.positions;
                     let idx = &m.mesh.indices;
                     tris.reserve(idx.len() / 3);
                     for t in idx.chunks_exact(3) {
-                        let p = |i: u32| Vec3::new(pos[3 * i as usize], pos[3 * i as usize + 1], pos[3 * i as usize + 2]) * scale + tr;
+                        let p = |i: u32| {
+                            Vec3::new(
+                                pos[3 * i as usize],
+                                pos[3 * i as usize + 1],
+                                pos[3 * i as usize + 2],
+                            ) * scale
+                                + tr
+                        };
                         tris.push(Triangle::new(p(t[0]), p(t[1]), p(t[2])));
                     }
                 }
                 if tris.is_empty() {
-                    return Err(err("file", format!("OBJ '{}' has no triangles", full.display())));
+                    return Err(err(
+                        "file",
+                        format!("OBJ '{}' has no triangles", full.display()),
+                    ));
                 }
             }
         }
         // Degenerate triangles.
         for (k, t) in tris.iter_mut().enumerate() {
             if !(t.area() > 0.0) || !t.area().is_finite() {
-                return Err(err("", format!("degenerate geometry: triangle {k} has zero area")));
+                return Err(err(
+                    "",
+                    format!("degenerate geometry: triangle {k} has zero area"),
+                ));
             }
             if s.flip_normals {
                 t.v.swap(1, 2);
             }
         }
-        let area: f32 = if let Some(sp) = sphere { sp.area() } else { tris.iter().map(|t| t.area()).sum() };
+        let area: f32 = if let Some(sp) = sphere {
+            sp.area()
+        } else {
+            tris.iter().map(|t| t.area()).sum()
+        };
 
         // Light.
         if let Some(e) = &s.emission {
             if !(e.scale.is_finite() && e.scale >= 0.0) {
-                return Err(err("emission.scale", format!("must be a finite non-negative number, got {}", e.scale)));
+                return Err(err(
+                    "emission.scale",
+                    format!("must be a finite non-negative number, got {}", e.scale),
+                ));
             }
-            let spec = ctx.parse(&e.spectrum, &format!("{base}.emission.spectrum"))?.scaled(e.scale);
+            let spec = ctx
+                .parse(&e.spectrum, &format!("{base}.emission.spectrum"))?
+                .scaled(e.scale);
             let shape = if let Some(sp) = sphere {
-                LightShape::Sphere { prim: self.spheres.len() as u32, sphere: sp, flip: s.flip_normals }
+                LightShape::Sphere {
+                    prim: self.spheres.len() as u32,
+                    sphere: sp,
+                    flip: s.flip_normals,
+                }
             } else {
                 let mut acc = 0.0;
                 let cdf = tris
@@ -593,9 +761,15 @@ impl Builder {
                         acc
                     })
                     .collect();
-                LightShape::Triangles { prims: (first_tri..first_tri + tris.len()).map(|i| i as u32).collect(), cdf }
+                LightShape::Triangles {
+                    prims: (first_tri..first_tri + tris.len())
+                        .map(|i| i as u32)
+                        .collect(),
+                    cdf,
+                }
             };
-            self.lights.push(AreaLight::new(name, shape, spec, e.two_sided, area, domain));
+            self.lights
+                .push(AreaLight::new(name, shape, spec, e.two_sided, area, domain));
         }
         if let Some(sp) = sphere {
             self.spheres.push(sp);
@@ -611,17 +785,61 @@ impl Builder {
 
 /// Twelve outward-facing triangles of an axis-aligned box.
 fn box_triangles(lo: Vec3, hi: Vec3) -> Vec<Triangle> {
-    let c = |x: bool, y: bool, z: bool| Vec3::new(if x { hi.x } else { lo.x }, if y { hi.y } else { lo.y }, if z { hi.z } else { lo.z });
+    let c = |x: bool, y: bool, z: bool| {
+        Vec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
     // Each face as four corners counter-clockwise seen from outside.
     let faces = [
-        [c(true, false, false), c(true, true, false), c(true, true, true), c(true, false, true)], // +x
-        [c(false, false, false), c(false, false, true), c(false, true, true), c(false, true, false)], // -x
-        [c(false, true, false), c(false, true, true), c(true, true, true), c(true, true, false)], // +y
-        [c(false, false, false), c(true, false, false), c(true, false, true), c(false, false, true)], // -y
-        [c(false, false, true), c(true, false, true), c(true, true, true), c(false, true, true)], // +z
-        [c(false, false, false), c(false, true, false), c(true, true, false), c(true, false, false)], // -z
+        [
+            c(true, false, false),
+            c(true, true, false),
+            c(true, true, true),
+            c(true, false, true),
+        ], // +x
+        [
+            c(false, false, false),
+            c(false, false, true),
+            c(false, true, true),
+            c(false, true, false),
+        ], // -x
+        [
+            c(false, true, false),
+            c(false, true, true),
+            c(true, true, true),
+            c(true, true, false),
+        ], // +y
+        [
+            c(false, false, false),
+            c(true, false, false),
+            c(true, false, true),
+            c(false, false, true),
+        ], // -y
+        [
+            c(false, false, true),
+            c(true, false, true),
+            c(true, true, true),
+            c(false, true, true),
+        ], // +z
+        [
+            c(false, false, false),
+            c(false, true, false),
+            c(true, true, false),
+            c(true, false, false),
+        ], // -z
     ];
-    faces.iter().flat_map(|q| [Triangle::new(q[0], q[1], q[2]), Triangle::new(q[0], q[2], q[3])]).collect()
+    faces
+        .iter()
+        .flat_map(|q| {
+            [
+                Triangle::new(q[0], q[1], q[2]),
+                Triangle::new(q[0], q[2], q[3]),
+            ]
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -10,9 +10,19 @@ use std::path::{Path, PathBuf};
 #[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
 enum SpectrumDesc {
-    Constant { value: f32 },
-    Box { lo: f32, hi: f32, value: f32 },
-    Gaussian { center: f32, fwhm: f32, peak: f32 },
+    Constant {
+        value: f32,
+    },
+    Box {
+        lo: f32,
+        hi: f32,
+        value: f32,
+    },
+    Gaussian {
+        center: f32,
+        fwhm: f32,
+        peak: f32,
+    },
     Tabulated {
         #[serde(default)]
         pairs: Option<Vec<[f32; 2]>>,
@@ -21,9 +31,15 @@ enum SpectrumDesc {
         #[serde(default)]
         scale: Option<f32>,
     },
-    Binned { lo: f32, width: f32, values: Vec<f32> },
+    Binned {
+        lo: f32,
+        width: f32,
+        values: Vec<f32>,
+    },
     /// A ColorChecker patch (1–24, in the usual order; 11 is yellow-green).
-    Colorchecker { patch: u32 },
+    Colorchecker {
+        patch: u32,
+    },
 }
 
 /// Context for resolving spectra: the scene file, its folder and the named spectra.
@@ -50,7 +66,9 @@ impl SpectrumContext<'_> {
                 SpectrumDesc::Constant { value } => Spectrum::Constant(value),
                 SpectrumDesc::Box { lo, hi, value } => {
                     if !(lo < hi) {
-                        return Err(err(format!("box spectrum needs lo < hi, got lo = {lo}, hi = {hi}")));
+                        return Err(err(format!(
+                            "box spectrum needs lo < hi, got lo = {lo}, hi = {hi}"
+                        )));
                     }
                     Spectrum::Box { lo, hi, value }
                 }
@@ -66,27 +84,50 @@ impl SpectrumContext<'_> {
                         (None, Some(f)) => {
                             let full = self.dir.join(&f);
                             let text = std::fs::read_to_string(&full).map_err(|e| {
-                                InputError::new(self.file, format!("{path}.file"), format!("cannot read '{}': {e}", full.display()))
+                                InputError::new(
+                                    self.file,
+                                    format!("{path}.file"),
+                                    format!("cannot read '{}': {e}", full.display()),
+                                )
                             })?;
                             parse_csv(&text).map_err(|m| {
-                                InputError::new(self.file, format!("{path}.file"), format!("malformed CSV '{}': {m}", full.display()))
+                                InputError::new(
+                                    self.file,
+                                    format!("{path}.file"),
+                                    format!("malformed CSV '{}': {m}", full.display()),
+                                )
                             })?
                         }
-                        _ => return Err(err("a tabulated spectrum needs exactly one of `pairs` or `file`".into())),
+                        _ => {
+                            return Err(err(
+                                "a tabulated spectrum needs exactly one of `pairs` or `file`"
+                                    .into(),
+                            ));
+                        }
                     };
                     check_increasing(&xs).map_err(err)?;
                     let k = scale.unwrap_or(1.0);
-                    Spectrum::Tabulated { xs, ys: ys.into_iter().map(|y: f32| y * k).collect() }
+                    Spectrum::Tabulated {
+                        xs,
+                        ys: ys.into_iter().map(|y: f32| y * k).collect(),
+                    }
                 }
                 SpectrumDesc::Binned { lo, width, values } => {
                     if !(width > 0.0) || values.is_empty() {
-                        return Err(err("a binned spectrum needs width > 0 and at least one value".into()));
+                        return Err(err(
+                            "a binned spectrum needs width > 0 and at least one value".into(),
+                        ));
                     }
                     Spectrum::Binned { lo, width, values }
                 }
                 SpectrumDesc::Colorchecker { patch } => colorchecker(patch).map_err(err)?,
             },
-            _ => return Err(err("expected a spectrum: a number, a spectrum name or an object with a `type`".into())),
+            _ => {
+                return Err(err(
+                    "expected a spectrum: a number, a spectrum name or an object with a `type`"
+                        .into(),
+                ));
+            }
         };
         check_values(&s).map_err(err)?;
         Ok(s)
@@ -99,7 +140,10 @@ fn check_increasing(xs: &[f32]) -> Result<(), String> {
     }
     for w in xs.windows(2) {
         if !(w[1] > w[0]) {
-            return Err(format!("wavelengths must increase strictly ({} then {})", w[0], w[1]));
+            return Err(format!(
+                "wavelengths must increase strictly ({} then {})",
+                w[0], w[1]
+            ));
         }
     }
     Ok(())
@@ -109,9 +153,16 @@ fn check_values(s: &Spectrum) -> Result<(), String> {
     let vals: Vec<f32> = match s {
         Spectrum::Constant(v) => vec![*v],
         Spectrum::Box { lo, hi, value } => vec![*lo, *hi, *value],
-        Spectrum::Gaussian { center, sigma, peak } => vec![*center, *sigma, *peak],
+        Spectrum::Gaussian {
+            center,
+            sigma,
+            peak,
+        } => vec![*center, *sigma, *peak],
         Spectrum::Tabulated { xs, ys } => xs.iter().chain(ys).copied().collect(),
-        Spectrum::Binned { lo, width, values } => std::iter::once(*lo).chain([*width]).chain(values.iter().copied()).collect(),
+        Spectrum::Binned { lo, width, values } => std::iter::once(*lo)
+            .chain([*width])
+            .chain(values.iter().copied())
+            .collect(),
     };
     if let Some(v) = vals.iter().find(|v| !v.is_finite()) {
         return Err(format!("spectrum contains a non-finite value ({v})"));
@@ -138,7 +189,10 @@ pub fn parse_csv(text: &str) -> Result<(Vec<f32>, Vec<f32>), String> {
         if l.is_empty() {
             continue;
         }
-        let parts: Vec<&str> = l.split([',', ';', '\t', ' ']).filter(|s| !s.is_empty()).collect();
+        let parts: Vec<&str> = l
+            .split([',', ';', '\t', ' '])
+            .filter(|s| !s.is_empty())
+            .collect();
         let nums: Result<Vec<f32>, _> = parts.iter().map(|p| p.parse::<f32>()).collect();
         match nums {
             Ok(v) if v.len() >= 2 => {
@@ -165,12 +219,23 @@ const MACBETH: &str = include_str!("../../data/spectra/macbeth_patches.csv");
 /// UV and deep red are not black).
 pub fn colorchecker(patch: u32) -> Result<Spectrum, String> {
     let mut lines = MACBETH.lines().filter(|l| !l.trim().is_empty());
-    let header: Vec<f32> = lines.next().unwrap().split(',').map(|x| x.trim().parse().unwrap()).collect();
+    let header: Vec<f32> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect();
     let rows: Vec<&str> = lines.collect();
     if patch < 1 || patch as usize > rows.len() {
-        return Err(format!("ColorChecker patch must be 1–{}, got {patch}", rows.len()));
+        return Err(format!(
+            "ColorChecker patch must be 1–{}, got {patch}",
+            rows.len()
+        ));
     }
-    let ys: Vec<f32> = rows[patch as usize - 1].split(',').map(|x| x.trim().parse().unwrap()).collect();
+    let ys: Vec<f32> = rows[patch as usize - 1]
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect();
     let mut xs = vec![200.0];
     xs.extend(&header);
     xs.push(1000.0);

@@ -9,7 +9,10 @@ use std::sync::OnceLock;
 
 const CMF_CSV: &str = include_str!("../../data/spectra/cie1931_2deg_xyz_1nm.csv");
 /// The observer table covers [360, 830] nm at 1 nm.
-pub const CMF_DOMAIN: Domain = Domain { min: 360.0, max: 830.0 };
+pub const CMF_DOMAIN: Domain = Domain {
+    min: 360.0,
+    max: 830.0,
+};
 
 struct CmfTable {
     xyz: Vec<Vec3>,
@@ -23,7 +26,10 @@ fn table() -> &'static CmfTable {
             .skip(1)
             .filter(|l| !l.trim().is_empty())
             .map(|l| {
-                let v: Vec<f32> = l.split(',').map(|x| x.trim().parse().expect("CIE table is valid")).collect();
+                let v: Vec<f32> = l
+                    .split(',')
+                    .map(|x| x.trim().parse().expect("CIE table is valid"))
+                    .collect();
                 Vec3::new(v[1], v[2], v[3])
             })
             .collect::<Vec<_>>();
@@ -78,9 +84,10 @@ impl Observer {
     #[inline]
     pub fn sample_wavelength(&self, mode: CameraWavelengths, u: f32) -> (f32, f32) {
         match mode {
-            CameraWavelengths::Uniform => {
-                (self.range.min + u * self.range.width(), 1.0 / self.range.width())
-            }
+            CameraWavelengths::Uniform => (
+                self.range.min + u * self.range.width(),
+                1.0 / self.range.width(),
+            ),
             CameraWavelengths::Cmf => self.cmf_dist.sample(u),
         }
     }
@@ -118,12 +125,26 @@ impl Observer {
             acc[2] += v * c.z as f64;
         }
         let k = h * self.inv_y_integral as f64;
-        Vec3::new((acc[0] * k) as f32, (acc[1] * k) as f32, (acc[2] * k) as f32)
+        Vec3::new(
+            (acc[0] * k) as f32,
+            (acc[1] * k) as f32,
+            (acc[2] * k) as f32,
+        )
     }
 }
 
 /// How camera paths choose their wavelength.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum CameraWavelengths {
     /// Uniform over the camera range.
@@ -145,7 +166,10 @@ fn cmf_sum_spectrum() -> Spectrum {
 fn integrate(f: impl Fn(f32) -> f32, d: Domain) -> f64 {
     let n = (d.width() * 10.0).round().max(1.0) as usize;
     let h = d.width() as f64 / n as f64;
-    (0..n).map(|i| f(d.min + ((i as f64 + 0.5) * h) as f32) as f64).sum::<f64>() * h
+    (0..n)
+        .map(|i| f(d.min + ((i as f64 + 0.5) * h) as f32) as f64)
+        .sum::<f64>()
+        * h
 }
 
 /// The XYZ → linear sRGB matrix, derived from the sRGB primaries and the D65 white point
@@ -160,7 +184,8 @@ pub fn xyz_to_srgb_matrix() -> Mat3 {
         let w = col((wx, wy));
         // Solve P · s = W for the channel scales s (P has primaries as columns).
         let m = |r: usize, c: usize| p[c][r];
-        let det = m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)) - m(0, 1) * (m(1, 0) * m(2, 2) - m(1, 2) * m(2, 0))
+        let det = m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1))
+            - m(0, 1) * (m(1, 0) * m(2, 2) - m(1, 2) * m(2, 0))
             + m(0, 2) * (m(1, 0) * m(2, 1) - m(1, 1) * m(2, 0));
         let inv = |r: usize, c: usize| {
             // Adjugate transpose / det.
@@ -168,7 +193,9 @@ pub fn xyz_to_srgb_matrix() -> Mat3 {
             let (c1, c2) = ((r + 1) % 3, (r + 2) % 3);
             (m(r1, c1) * m(r2, c2) - m(r1, c2) * m(r2, c1)) / det
         };
-        let s: Vec<f64> = (0..3).map(|r| (0..3).map(|c| inv(r, c) * w[c]).sum()).collect();
+        let s: Vec<f64> = (0..3)
+            .map(|r| (0..3).map(|c| inv(r, c) * w[c]).sum())
+            .collect();
         // RGB→XYZ = P · diag(s); invert it.
         let rgb2xyz = |r: usize, c: usize| m(r, c) * s[c];
         let det2 = rgb2xyz(0, 0) * (rgb2xyz(1, 1) * rgb2xyz(2, 2) - rgb2xyz(1, 2) * rgb2xyz(2, 1))
@@ -194,7 +221,11 @@ pub fn xyz_to_linear_srgb(xyz: Vec3) -> Vec3 {
 
 /// Linear → sRGB transfer function (display encoding).
 pub fn srgb_encode(c: f32) -> f32 {
-    if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 #[cfg(test)]
@@ -217,11 +248,17 @@ mod tests {
 
     #[test]
     fn d65_chromaticity() {
-        let obs = Observer::new(Domain { min: 300.0, max: 830.0 });
+        let obs = Observer::new(Domain {
+            min: 300.0,
+            max: 830.0,
+        });
         let xyz = obs.spectrum_to_xyz(&d65());
         let s = xyz.x + xyz.y + xyz.z;
         let (x, y) = (xyz.x / s, xyz.y / s);
-        assert!((x - 0.3127).abs() < 1e-3 && (y - 0.3290).abs() < 1e-3, "D65 xy = ({x}, {y})");
+        assert!(
+            (x - 0.3127).abs() < 1e-3 && (y - 0.3290).abs() < 1e-3,
+            "D65 xy = ({x}, {y})"
+        );
         // D65 maps to equal linear sRGB channels.
         let rgb = xyz_to_linear_srgb(xyz / xyz.y);
         assert!((rgb - Vec3::ONE).abs().max_element() < 5e-3, "{rgb:?}");
@@ -229,15 +266,30 @@ mod tests {
 
     #[test]
     fn constant_one_gives_y_one() {
-        for d in [DEFAULT_DOMAIN, Domain { min: 360.0, max: 830.0 }] {
+        for d in [
+            DEFAULT_DOMAIN,
+            Domain {
+                min: 360.0,
+                max: 830.0,
+            },
+        ] {
             let obs = Observer::new(d);
             let xyz = obs.spectrum_to_xyz(&Spectrum::Constant(1.0));
             assert!((xyz.y - 1.0).abs() < 1e-5, "Y = {}", xyz.y);
         }
         // Mitsuba's value for a unit constant spectrum over 360–830 nm.
-        let obs = Observer::new(Domain { min: 360.0, max: 830.0 });
+        let obs = Observer::new(Domain {
+            min: 360.0,
+            max: 830.0,
+        });
         let rgb = xyz_to_linear_srgb(obs.spectrum_to_xyz(&Spectrum::Constant(1.0)));
-        assert!((rgb - Vec3::new(1.20488, 0.948229, 0.909267)).abs().max_element() < 2e-3, "{rgb:?}");
+        assert!(
+            (rgb - Vec3::new(1.20488, 0.948229, 0.909267))
+                .abs()
+                .max_element()
+                < 2e-3,
+            "{rgb:?}"
+        );
     }
 
     #[test]

@@ -27,11 +27,18 @@ mod tests {
     use super::*;
     #[test]
     fn lanes_are_equally_spaced_and_inside() {
-        let r = Domain { min: 360.0, max: 780.0 };
+        let r = Domain {
+            min: 360.0,
+            max: 780.0,
+        };
         let mut l = [0.0; 4];
         HeroWavelengths::rotate(700.0, r, &mut l);
         assert_eq!(l[0], 700.0);
-        assert!((l[1] - 385.0).abs() < 1e-4 && (l[2] - 490.0).abs() < 1e-4 && (l[3] - 595.0).abs() < 1e-4);
+        assert!(
+            (l[1] - 385.0).abs() < 1e-4
+                && (l[2] - 490.0).abs() < 1e-4
+                && (l[3] - 595.0).abs() < 1e-4
+        );
         assert!(l.iter().all(|x| r.contains(*x)));
     }
 }

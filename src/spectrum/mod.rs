@@ -12,7 +12,10 @@ pub use hero::HeroWavelengths;
 pub use sampling::Distribution1D;
 
 /// Default wavelength domain Λ = [280, 780] nm (Jung 4.1), so that UV light can drive fluorescence.
-pub const DEFAULT_DOMAIN: Domain = Domain { min: 280.0, max: 780.0 };
+pub const DEFAULT_DOMAIN: Domain = Domain {
+    min: 280.0,
+    max: 780.0,
+};
 
 /// A closed wavelength interval in nm.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,7 +32,10 @@ impl Domain {
         l >= self.min && l <= self.max
     }
     pub fn intersect(&self, o: &Domain) -> Domain {
-        Domain { min: self.min.max(o.min), max: self.max.min(o.max) }
+        Domain {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
     }
 }
 
@@ -38,19 +44,38 @@ impl Domain {
 pub enum Spectrum {
     Constant(f32),
     /// `value` on [lo, hi], zero elsewhere.
-    Box { lo: f32, hi: f32, value: f32 },
+    Box {
+        lo: f32,
+        hi: f32,
+        value: f32,
+    },
     /// A Gaussian with centre, standard deviation and peak value.
-    Gaussian { center: f32, sigma: f32, peak: f32 },
+    Gaussian {
+        center: f32,
+        sigma: f32,
+        peak: f32,
+    },
     /// Piecewise-linear through (xs, ys), zero outside [xs[0], xs[n-1]]. xs strictly increasing.
-    Tabulated { xs: Vec<f32>, ys: Vec<f32> },
+    Tabulated {
+        xs: Vec<f32>,
+        ys: Vec<f32>,
+    },
     /// Piecewise-constant: `values[i]` on [lo + i·width, lo + (i+1)·width).
-    Binned { lo: f32, width: f32, values: Vec<f32> },
+    Binned {
+        lo: f32,
+        width: f32,
+        values: Vec<f32>,
+    },
 }
 
 impl Spectrum {
     /// A Gaussian given by its full width at half maximum.
     pub fn gaussian_fwhm(center: f32, fwhm: f32, peak: f32) -> Spectrum {
-        Spectrum::Gaussian { center, sigma: fwhm / (2.0 * (2.0f32 * 2f32.ln()).sqrt()), peak }
+        Spectrum::Gaussian {
+            center,
+            sigma: fwhm / (2.0 * (2.0f32 * 2f32.ln()).sqrt()),
+            peak,
+        }
     }
 
     /// Value at wavelength `l`.
@@ -64,7 +89,11 @@ impl Spectrum {
                     0.0
                 }
             }
-            Spectrum::Gaussian { center, sigma, peak } => {
+            Spectrum::Gaussian {
+                center,
+                sigma,
+                peak,
+            } => {
                 let x = (l - center) / sigma;
                 peak * (-0.5 * x * x).exp()
             }
@@ -111,7 +140,11 @@ impl Spectrum {
                 let h = b64.min(*hi as f64);
                 if h > l { *value as f64 * (h - l) } else { 0.0 }
             }
-            Spectrum::Gaussian { center, sigma, peak } => {
+            Spectrum::Gaussian {
+                center,
+                sigma,
+                peak,
+            } => {
                 let s = *sigma as f64;
                 let c = *center as f64;
                 let k = std::f64::consts::SQRT_2 * s;
@@ -160,7 +193,9 @@ impl Spectrum {
 
     /// Bin averages on a grid.
     pub fn to_bins(&self, grid: &BinGrid) -> Vec<f32> {
-        (0..grid.len()).map(|i| self.bin_average(grid.edge(i), grid.edge(i + 1))).collect()
+        (0..grid.len())
+            .map(|i| self.bin_average(grid.edge(i), grid.edge(i + 1)))
+            .collect()
     }
 
     /// Largest value on the domain (dense scan for smooth kinds).
@@ -182,7 +217,9 @@ impl Spectrum {
                 .fold(self.eval(d.min).max(self.eval(d.max)), f32::max),
             Spectrum::Binned { .. } | Spectrum::Gaussian { .. } => {
                 let n = ((d.width() * 4.0) as usize).max(1);
-                (0..=n).map(|i| self.eval(d.min + d.width() * i as f32 / n as f32)).fold(0.0, f32::max)
+                (0..=n)
+                    .map(|i| self.eval(d.min + d.width() * i as f32 / n as f32))
+                    .fold(0.0, f32::max)
             }
         }
     }
@@ -203,13 +240,24 @@ impl Spectrum {
     pub fn scaled(&self, k: f32) -> Spectrum {
         match self {
             Spectrum::Constant(v) => Spectrum::Constant(v * k),
-            Spectrum::Box { lo, hi, value } => Spectrum::Box { lo: *lo, hi: *hi, value: value * k },
-            Spectrum::Gaussian { center, sigma, peak } => {
-                Spectrum::Gaussian { center: *center, sigma: *sigma, peak: peak * k }
-            }
-            Spectrum::Tabulated { xs, ys } => {
-                Spectrum::Tabulated { xs: xs.clone(), ys: ys.iter().map(|y| y * k).collect() }
-            }
+            Spectrum::Box { lo, hi, value } => Spectrum::Box {
+                lo: *lo,
+                hi: *hi,
+                value: value * k,
+            },
+            Spectrum::Gaussian {
+                center,
+                sigma,
+                peak,
+            } => Spectrum::Gaussian {
+                center: *center,
+                sigma: *sigma,
+                peak: peak * k,
+            },
+            Spectrum::Tabulated { xs, ys } => Spectrum::Tabulated {
+                xs: xs.clone(),
+                ys: ys.iter().map(|y| y * k).collect(),
+            },
             Spectrum::Binned { lo, width, values } => Spectrum::Binned {
                 lo: *lo,
                 width: *width,
@@ -230,15 +278,16 @@ pub fn erf(x: f64) -> f64 {
     // Numerical Recipes `erfcc`: fractional error < 1.2e-7 everywhere.
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let ans = t * (-z * z - 1.26551223
-        + t * (1.00002368
-            + t * (0.37409196
-                + t * (0.09678418
-                    + t * (-0.18628806
-                        + t * (0.27886807
-                            + t * (-1.13520398
-                                + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-        .exp();
+    let ans = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
     if x >= 0.0 { 1.0 - ans } else { ans - 1.0 }
 }
 
@@ -248,7 +297,11 @@ mod tests {
 
     #[test]
     fn box_integrates_exactly() {
-        let s = Spectrum::Box { lo: 400.0, hi: 450.0, value: 2.0 };
+        let s = Spectrum::Box {
+            lo: 400.0,
+            hi: 450.0,
+            value: 2.0,
+        };
         assert_eq!(s.integral(280.0, 780.0), 100.0);
         assert_eq!(s.integral(420.0, 430.0), 20.0);
         assert_eq!(s.bin_average(445.0, 455.0), 1.0);
@@ -259,7 +312,10 @@ mod tests {
     fn bin_average_is_average_not_point_sample() {
         // A ramp 0..1 over [400, 500]: the bin [400, 450] averages 0.25; its centre is also 0.25,
         // but the bin [490, 510] straddles the end: average (0.9+1)/2·0.5 = 0.475, centre = 1.
-        let s = Spectrum::Tabulated { xs: vec![400.0, 500.0], ys: vec![0.0, 1.0] };
+        let s = Spectrum::Tabulated {
+            xs: vec![400.0, 500.0],
+            ys: vec![0.0, 1.0],
+        };
         assert!((s.bin_average(400.0, 450.0) - 0.25).abs() < 1e-6);
         assert!((s.bin_average(490.0, 510.0) - 0.475).abs() < 1e-6);
         assert_eq!(s.eval(500.0), 1.0);
@@ -267,32 +323,48 @@ mod tests {
         let g = BinGrid::new(DEFAULT_DOMAIN, 50.0);
         let bins = s.to_bins(&g);
         assert_eq!(bins.len(), 10);
-        assert!((bins[2] - 0.09).abs() < 1e-6 && (bins[3] - 0.55).abs() < 1e-6 && (bins[4] - 0.36).abs() < 1e-6);
+        assert!(
+            (bins[2] - 0.09).abs() < 1e-6
+                && (bins[3] - 0.55).abs() < 1e-6
+                && (bins[4] - 0.36).abs() < 1e-6
+        );
         assert_eq!(bins[0], 0.0);
     }
 
     #[test]
     fn gaussian_integral_matches_closed_form() {
         let g = Spectrum::gaussian_fwhm(500.0, 30.0, 1.0);
-        let Spectrum::Gaussian { sigma, .. } = g else { unreachable!() };
+        let Spectrum::Gaussian { sigma, .. } = g else {
+            unreachable!()
+        };
         let exact = sigma as f64 * (2.0 * std::f64::consts::PI).sqrt();
         assert!((g.integral(0.0, 1000.0) - exact).abs() < 1e-5 * exact);
         assert!((g.eval(515.0) - 0.5).abs() < 1e-5);
         // Numerical integration agrees on a sub-interval.
         let n = 10000;
-        let num: f64 =
-            (0..n).map(|i| g.eval(480.0 + 40.0 * (i as f32 + 0.5) / n as f32) as f64).sum::<f64>() * 40.0 / n as f64;
+        let num: f64 = (0..n)
+            .map(|i| g.eval(480.0 + 40.0 * (i as f32 + 0.5) / n as f32) as f64)
+            .sum::<f64>()
+            * 40.0
+            / n as f64;
         assert!((g.integral(480.0, 520.0) - num).abs() < 1e-4);
     }
 
     #[test]
     fn binned_and_tabulated_integrals() {
-        let b = Spectrum::Binned { lo: 400.0, width: 10.0, values: vec![1.0, 2.0, 3.0] };
+        let b = Spectrum::Binned {
+            lo: 400.0,
+            width: 10.0,
+            values: vec![1.0, 2.0, 3.0],
+        };
         assert_eq!(b.integral(0.0, 1000.0), 60.0);
         assert_eq!(b.eval(415.0), 2.0);
         assert_eq!(b.eval(430.0), 3.0);
         assert_eq!(b.eval(431.0), 0.0);
-        let t = Spectrum::Tabulated { xs: vec![400.0, 410.0, 430.0], ys: vec![0.0, 1.0, 1.0] };
+        let t = Spectrum::Tabulated {
+            xs: vec![400.0, 410.0, 430.0],
+            ys: vec![0.0, 1.0, 1.0],
+        };
         assert!((t.integral(0.0, 1000.0) - 25.0).abs() < 1e-9);
     }
 }

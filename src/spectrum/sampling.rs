@@ -47,9 +47,22 @@ impl Distribution1D {
         let cdf = cdf
             .into_iter()
             .enumerate()
-            .map(|(i, c)| if integral > 0.0 { (c / integral) as f32 } else { i as f32 / n as f32 })
+            .map(|(i, c)| {
+                if integral > 0.0 {
+                    (c / integral) as f32
+                } else {
+                    i as f32 / n as f32
+                }
+            })
             .collect();
-        Distribution1D { lo: domain.min, hi: domain.max, cell, func, cdf, integral }
+        Distribution1D {
+            lo: domain.min,
+            hi: domain.max,
+            cell,
+            func,
+            cdf,
+            integral,
+        }
     }
 
     /// ∫ f over the domain (zero means the distribution falls back to uniform).
@@ -58,7 +71,10 @@ impl Distribution1D {
     }
 
     pub fn domain(&self) -> Domain {
-        Domain { min: self.lo, max: self.hi }
+        Domain {
+            min: self.lo,
+            max: self.hi,
+        }
     }
 
     /// Sample λ from uniform `u` in [0, 1); returns (λ, pdf).
@@ -66,13 +82,21 @@ impl Distribution1D {
     pub fn sample(&self, u: f32) -> (f32, f32) {
         let n = self.func.len();
         // Largest i with cdf[i] <= u, and a cell with non-zero mass.
-        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        let mut i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
         while i + 1 < n && self.cdf[i + 1] <= self.cdf[i] {
             i += 1;
         }
         let c0 = self.cdf[i];
         let dc = self.cdf[i + 1] - c0;
-        let t = if dc > 0.0 { ((u - c0) / dc).clamp(0.0, 1.0) } else { 0.5 };
+        let t = if dc > 0.0 {
+            ((u - c0) / dc).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
         let mut l = (self.lo + (i as f32 + t) * self.cell).min(self.hi);
         if self.cell_index(l) != i {
             // Rounding put λ on a cell edge: keep it inside the sampled cell.
@@ -111,13 +135,18 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     fn check(spec: &Spectrum) {
-        let d = Domain { min: 280.0, max: 780.0 };
+        let d = Domain {
+            min: 280.0,
+            max: 780.0,
+        };
         let dist = Distribution1D::from_spectrum(spec, d, 1.0);
         // pdf integrates to one (fine midpoint rule).
         let n = 50_000;
-        let integ: f64 =
-            (0..n).map(|i| dist.pdf(280.0 + 500.0 * (i as f32 + 0.5) / n as f32) as f64).sum::<f64>() * 500.0
-                / n as f64;
+        let integ: f64 = (0..n)
+            .map(|i| dist.pdf(280.0 + 500.0 * (i as f32 + 0.5) / n as f32) as f64)
+            .sum::<f64>()
+            * 500.0
+            / n as f64;
         assert!((integ - 1.0).abs() < 1e-3, "pdf integrates to {integ}");
         // Histogram of samples matches the pdf in 10 nm bins (chi-square style bound).
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
@@ -125,29 +154,58 @@ mod tests {
         let mut hist = [0u32; 50];
         for _ in 0..m {
             let (l, p) = dist.sample(rng.random());
-            assert!(p > 0.0 && (p - dist.pdf(l)).abs() <= 1e-4 * p, "returned pdf {p} vs pdf(l) {}", dist.pdf(l));
+            assert!(
+                p > 0.0 && (p - dist.pdf(l)).abs() <= 1e-4 * p,
+                "returned pdf {p} vs pdf(l) {}",
+                dist.pdf(l)
+            );
             hist[(((l - 280.0) / 10.0) as usize).min(49)] += 1;
         }
         for (b, &h) in hist.iter().enumerate() {
             let a = 280.0 + 10.0 * b as f32;
-            let expected = (0..100).map(|k| dist.pdf(a + 0.1 * (k as f32 + 0.5))).sum::<f32>() * 0.1 * m as f32;
+            let expected = (0..100)
+                .map(|k| dist.pdf(a + 0.1 * (k as f32 + 0.5)))
+                .sum::<f32>()
+                * 0.1
+                * m as f32;
             let sd = expected.max(1.0).sqrt();
-            assert!((h as f32 - expected).abs() < 5.0 * sd + 1.0, "bin {b}: {h} vs {expected}");
+            assert!(
+                (h as f32 - expected).abs() < 5.0 * sd + 1.0,
+                "bin {b}: {h} vs {expected}"
+            );
         }
     }
 
     #[test]
     fn histogram_matches_pdf() {
         check(&Spectrum::gaussian_fwhm(515.0, 30.0, 1.0));
-        check(&Spectrum::Box { lo: 402.5, hi: 437.3, value: 3.0 });
-        check(&Spectrum::Tabulated { xs: vec![300.0, 500.0, 700.0], ys: vec![0.0, 2.0, 0.5] });
+        check(&Spectrum::Box {
+            lo: 402.5,
+            hi: 437.3,
+            value: 3.0,
+        });
+        check(&Spectrum::Tabulated {
+            xs: vec![300.0, 500.0, 700.0],
+            ys: vec![0.0, 2.0, 0.5],
+        });
         check(&Spectrum::Constant(1.0));
     }
 
     #[test]
     fn pdf_is_zero_where_spectrum_is_zero_on_whole_cells() {
-        let d = Domain { min: 280.0, max: 780.0 };
-        let dist = Distribution1D::from_spectrum(&Spectrum::Box { lo: 400.0, hi: 405.0, value: 1.0 }, d, 1.0);
+        let d = Domain {
+            min: 280.0,
+            max: 780.0,
+        };
+        let dist = Distribution1D::from_spectrum(
+            &Spectrum::Box {
+                lo: 400.0,
+                hi: 405.0,
+                value: 1.0,
+            },
+            d,
+            1.0,
+        );
         assert_eq!(dist.pdf(399.5), 0.0);
         assert_eq!(dist.pdf(406.5), 0.0);
         assert!((dist.pdf(402.0) - 0.2).abs() < 1e-6);

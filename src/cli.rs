@@ -1,0 +1,250 @@
+//! Command implementations behind `main.rs`, kept in the library so tests can call them.
+
+use crate::film::{write_exr, write_png};
+use crate::integrator::{
+    IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
+};
+use crate::material::WavelengthSampling;
+use crate::scene::Scene;
+use crate::spectrum::cie::CameraWavelengths;
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// An error with the process exit code: 2 for bad input, 1 for failures while running.
+#[derive(Debug)]
+pub struct CliError {
+    pub code: u8,
+    pub message: String,
+}
+
+impl CliError {
+    pub fn input(m: impl Into<String>) -> Self {
+        CliError {
+            code: 2,
+            message: m.into(),
+        }
+    }
+    pub fn runtime(m: impl Into<String>) -> Self {
+        CliError {
+            code: 1,
+            message: m.into(),
+        }
+    }
+}
+
+impl From<crate::scene::InputError> for CliError {
+    fn from(e: crate::scene::InputError) -> Self {
+        CliError::input(e.to_string())
+    }
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene JSON file.
+    pub scene: PathBuf,
+    #[arg(long, value_enum, default_value = "pt-mono")]
+    pub integrator: IntegratorKind,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Stop after the pass during which this many seconds have passed.
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Maximum number of path segments.
+    #[arg(long, default_value_t = 8)]
+    pub max_depth: u32,
+    /// Output OpenEXR (linear sRGB, f32).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write an sRGB PNG preview.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Exposure of the PNG preview in stops.
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f32,
+    /// Write render statistics as JSON.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Camera wavelength sampling.
+    #[arg(long, value_enum, default_value = "uniform")]
+    pub camera_wavelengths: CameraWavelengths,
+    /// New-wavelength sampling at fluorescent vertices (Jung 7.1.2).
+    #[arg(long, value_enum, default_value = "importance")]
+    pub wavelength_sampling: WavelengthSampling,
+    /// Hero wavelength lanes (pt-hero).
+    #[arg(long, default_value_t = 4)]
+    pub lanes: u32,
+    /// First wavelength of light sub-paths (BDPT).
+    #[arg(long, value_enum, default_value = "emission")]
+    pub light_wavelengths: LightWavelengths,
+    /// MIS heuristic.
+    #[arg(long, value_enum, default_value = "balance")]
+    pub mis: MisHeuristic,
+    /// Bin width in nm (bdpt-allbins).
+    #[arg(long, default_value_t = 5.0)]
+    pub bin_width: f32,
+    /// Russian roulette from this many segments on (uni-directional tracers); off by default.
+    #[arg(long)]
+    pub rr_depth: Option<u32>,
+    /// Write each BDPT strategy's weighted contribution as its own EXR into this folder.
+    #[arg(long)]
+    pub strategy_images: Option<PathBuf>,
+    /// Do not print scene warnings.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl RenderArgs {
+    pub fn options(&self) -> IntegratorOptions {
+        IntegratorOptions {
+            max_depth: self.max_depth,
+            camera_wavelengths: self.camera_wavelengths,
+            wavelength_sampling: self.wavelength_sampling,
+            lanes: self.lanes,
+            light_wavelengths: self.light_wavelengths,
+            mis: self.mis,
+            bin_width: self.bin_width,
+            rr_depth: self.rr_depth,
+            strategy_images: self.strategy_images.is_some(),
+        }
+    }
+}
+
+/// Load a scene and print its warnings.
+pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, CliError> {
+    let scene = Scene::load(path)?;
+    if !quiet {
+        for w in &scene.warnings {
+            eprintln!("warning: {}: {w}", path.display());
+        }
+    }
+    Ok(scene)
+}
+
+pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), CliError> {
+    if a.spp == 0 {
+        return Err(CliError::input("--spp must be at least 1"));
+    }
+    if let Some(t) = a.time_limit {
+        if !(t > 0.0 && t.is_finite()) {
+            return Err(CliError::input(format!(
+                "--time-limit must be a positive number of seconds, got {t}"
+            )));
+        }
+    }
+    if a.threads == Some(0) {
+        return Err(CliError::input("--threads must be at least 1"));
+    }
+    a.options()
+        .validate()
+        .map_err(|m| CliError::input(format!("option {m}")))
+}
+
+pub fn render(a: &RenderArgs) -> Result<(), CliError> {
+    render_cmd_validate(a)?;
+    let scene = load_scene(&a.scene, a.quiet)?;
+    let settings = RenderSettings {
+        spp: a.spp,
+        seed: a.seed,
+        threads: a.threads,
+        time_limit: a.time_limit,
+        progress: true,
+    };
+    let opts = a.options();
+    let out = crate::integrator::render(&scene, a.integrator, &opts, &settings, None)
+        .map_err(CliError::input)?;
+    let (w, h) = (out.film.width, out.film.height);
+    let rgb = out.film.rgb();
+    write_exr(&a.output, w, h, &rgb).map_err(CliError::runtime)?;
+    if let Some(p) = &a.png {
+        write_png(p, w, h, &rgb, a.exposure).map_err(CliError::runtime)?;
+    }
+    if let Some(dir) = &a.strategy_images {
+        for (i, name) in out.film.aux_names.iter().enumerate() {
+            write_exr(&dir.join(format!("{name}.exr")), w, h, &out.film.aux_rgb(i))
+                .map_err(CliError::runtime)?;
+        }
+    }
+    if let Some(p) = &a.stats {
+        let json = stats_json(a.integrator, &opts, &out);
+        crate::film::output::write_atomic(p, |tmp| {
+            std::fs::write(tmp, serde_json::to_string_pretty(&json).unwrap())
+                .map_err(|e| format!("cannot write stats '{}': {e}", p.display()))
+        })
+        .map_err(CliError::runtime)?;
+    }
+    eprintln!(
+        "{}: {} spp in {:.2} s ({:.3} M samples/s), {} NaN/Inf rejected",
+        a.integrator.name(),
+        out.film.spp,
+        out.seconds,
+        out.stats.paths as f64 / out.seconds.max(1e-9) / 1e6,
+        out.stats.nan_inf_rejected
+    );
+    Ok(())
+}
+
+/// The `--stats` JSON document.
+pub fn stats_json(
+    kind: IntegratorKind,
+    opts: &IntegratorOptions,
+    out: &crate::integrator::RenderOutput,
+) -> serde_json::Value {
+    let s = &out.stats;
+    serde_json::json!({
+        "integrator": kind.name(),
+        "options": opts,
+        "spp": out.film.spp,
+        "width": out.film.width,
+        "height": out.film.height,
+        "seconds": out.seconds,
+        "samples_per_second": s.paths as f64 / out.seconds.max(1e-9),
+        "rays": s.rays,
+        "rays_per_second": s.rays as f64 / out.seconds.max(1e-9),
+        "nan_inf_rejected": s.nan_inf_rejected,
+        "paths": s.paths,
+        "contributing_paths": s.contributing_paths,
+        "contributing_paths_by_segments": s.contributing_by_length,
+    })
+}
+
+pub fn inspect(path: &Path) -> Result<(), CliError> {
+    let s = load_scene(path, false)?;
+    println!("scene: {}", path.display());
+    println!(
+        "domain: [{}, {}] nm, camera range [{}, {}] nm",
+        s.domain.min, s.domain.max, s.observer.range.min, s.observer.range.max
+    );
+    println!("camera: {}×{}", s.camera.width, s.camera.height);
+    println!(
+        "primitives: {} triangles, {} spheres",
+        s.triangles.len(),
+        s.spheres.len()
+    );
+    for (n, m) in s.material_names.iter().zip(&s.materials) {
+        use crate::material::Bbrrdf;
+        println!(
+            "material {n}: {}",
+            if m.is_fluorescent() {
+                "fluorescent"
+            } else {
+                "non-fluorescent"
+            }
+        );
+    }
+    for l in &s.lights {
+        println!(
+            "light {}: area {:.4}, power {:.4}{}",
+            l.name,
+            l.area,
+            l.power,
+            if l.two_sided { ", two-sided" } else { "" }
+        );
+    }
+    Ok(())
+}

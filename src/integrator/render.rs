@@ -1,0 +1,183 @@
+//! The render loop: passes of one sample per pixel, rows in parallel (rayon), accumulated in a
+//! fixed order so the image is the same for a given seed whatever the thread count.
+
+use super::{Integrator, IntegratorKind, IntegratorOptions, SampleSink, Sampler, Stats};
+use crate::film::Film;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub spp: u32,
+    pub seed: u64,
+    /// Worker threads (all cores when `None`).
+    pub threads: Option<usize>,
+    /// Stop after the pass during which this many seconds have elapsed.
+    pub time_limit: Option<f64>,
+    /// Show a progress bar (on a terminal only).
+    pub progress: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            spp: 16,
+            seed: 0,
+            threads: None,
+            time_limit: None,
+            progress: false,
+        }
+    }
+}
+
+pub struct RenderOutput {
+    pub film: Film,
+    pub stats: Stats,
+    /// Wall-clock seconds of rendering (scene loading excluded).
+    pub seconds: f64,
+}
+
+/// Called after each pass: (film so far, stats so far, seconds so far). Return `false` to stop.
+pub type PassCallback<'a> = dyn FnMut(&Film, &Stats, f64) -> bool + Send + 'a;
+
+/// Render `scene` with the integrator `kind`.
+pub fn render(
+    scene: &Scene,
+    kind: IntegratorKind,
+    opts: &IntegratorOptions,
+    settings: &RenderSettings,
+    on_pass: Option<&mut PassCallback>,
+) -> Result<RenderOutput, String> {
+    opts.validate()?;
+    let pool = {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(t) = settings.threads {
+            b = b.num_threads(t.max(1));
+        }
+        b.build()
+            .map_err(|e| format!("cannot start worker threads: {e}"))?
+    };
+    pool.install(|| match kind {
+        IntegratorKind::PtMono => run(
+            scene,
+            &super::pt::PtMono::new(scene, opts)?,
+            settings,
+            on_pass,
+        ),
+        other => Err(format!("integrator {} is not available yet", other.name())),
+    })
+}
+
+struct RowResult {
+    values: Vec<Vec3>,
+    splats: Vec<(u32, Vec3)>,
+    aux: Vec<(u16, u32, Vec3)>,
+    stats: Stats,
+}
+
+/// Run any integrator through the pass loop.
+pub fn run<I: Integrator>(
+    scene: &Scene,
+    integrator: &I,
+    settings: &RenderSettings,
+    mut on_pass: Option<&mut PassCallback>,
+) -> Result<RenderOutput, String> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut film = Film::new(w, h, integrator.aux_layers());
+    let mut stats = Stats::default();
+    let start = Instant::now();
+    let bar = if settings.progress && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        let b = indicatif::ProgressBar::new(settings.spp as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} spp  eta {eta}  {msg}",
+            )
+            .unwrap()
+            .progress_chars("=> "),
+        );
+        Some(b)
+    } else {
+        None
+    };
+    for s in 0..settings.spp {
+        let rows: Vec<RowResult> = (0..h)
+            .into_par_iter()
+            .map_init(
+                || integrator.scratch(scene),
+                |scratch, y| {
+                    let mut r = RowResult {
+                        values: Vec::with_capacity(w as usize),
+                        splats: Vec::new(),
+                        aux: Vec::new(),
+                        stats: Stats::default(),
+                    };
+                    for x in 0..w {
+                        let pixel = y * w + x;
+                        let mut sampler = Sampler::new(settings.seed, pixel as u64, s as u64);
+                        let (jx, jy) = (sampler.next(), sampler.next());
+                        let mut sink = SampleSink {
+                            value: Vec3::ZERO,
+                            width: w,
+                            height: h,
+                            splats: &mut r.splats,
+                            aux: &mut r.aux,
+                            stats: &mut r.stats,
+                            pixel,
+                        };
+                        sink.stats.paths += 1;
+                        integrator.sample(
+                            scene,
+                            x as f32 + jx,
+                            y as f32 + jy,
+                            &mut sampler,
+                            scratch,
+                            &mut sink,
+                        );
+                        r.values.push(sink.value);
+                    }
+                    r
+                },
+            )
+            .collect();
+        for (y, r) in rows.iter().enumerate() {
+            let base = y * w as usize;
+            for (x, v) in r.values.iter().enumerate() {
+                Film::add(&mut film.sum[base + x], *v);
+            }
+            for (p, v) in &r.splats {
+                Film::add(&mut film.splat[*p as usize], *v);
+            }
+            for (l, p, v) in &r.aux {
+                Film::add(&mut film.aux[*l as usize][*p as usize], *v);
+            }
+            stats.merge(&r.stats);
+        }
+        film.spp += 1;
+        let secs = start.elapsed().as_secs_f64();
+        if let Some(b) = &bar {
+            b.set_position(film.spp as u64);
+            b.set_message(format!(
+                "{:.2} Msamples/s",
+                stats.paths as f64 / secs.max(1e-9) / 1e6
+            ));
+        }
+        if let Some(cb) = on_pass.as_mut() {
+            if !cb(&film, &stats, secs) {
+                break;
+            }
+        }
+        if settings.time_limit.is_some_and(|t| secs >= t) {
+            break;
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok(RenderOutput {
+        film,
+        stats,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
