@@ -130,12 +130,12 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), CliError> {
     if a.spp == 0 {
         return Err(CliError::input("--spp must be at least 1"));
     }
-    if let Some(t) = a.time_limit {
-        if !(t > 0.0 && t.is_finite()) {
-            return Err(CliError::input(format!(
-                "--time-limit must be a positive number of seconds, got {t}"
-            )));
-        }
+    if let Some(t) = a.time_limit
+        && !(t > 0.0 && t.is_finite())
+    {
+        return Err(CliError::input(format!(
+            "--time-limit must be a positive number of seconds, got {t}"
+        )));
     }
     if a.threads == Some(0) {
         return Err(CliError::input("--threads must be at least 1"));

@@ -36,19 +36,38 @@ fn run_scene(name: &str, text: &str, extra_files: &[(&str, &str)]) -> (i32, Stri
     }
     let scene = d.join("scene.json");
     std::fs::write(&scene, text).unwrap();
-    run(&[scene.to_str().unwrap(), "--spp", "1", "-o", d.join("out.exr").to_str().unwrap()])
+    run(&[
+        scene.to_str().unwrap(),
+        "--spp",
+        "1",
+        "-o",
+        d.join("out.exr").to_str().unwrap(),
+    ])
 }
 
 fn run(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_stokes")).arg("render").args(args).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).to_string())
+    let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
+        .arg("render")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    )
 }
 
 fn expect_error(name: &str, text: &str, extra: &[(&str, &str)], field: &str) {
     let (code, err) = run_scene(name, text, extra);
     assert_eq!(code, 2, "{name}: exit code {code}, stderr: {err}");
-    assert!(err.contains("scene.json"), "{name}: message does not name the file: {err}");
-    assert!(err.contains(field), "{name}: message does not name `{field}`: {err}");
+    assert!(
+        err.contains("scene.json"),
+        "{name}: message does not name the file: {err}"
+    );
+    assert!(
+        err.contains(field),
+        "{name}: message does not name `{field}`: {err}"
+    );
     assert!(!err.contains("panicked"), "{name}: panic: {err}");
 }
 
@@ -60,17 +79,60 @@ fn good_scene_renders() {
 
 #[test]
 fn unknown_keys() {
-    expect_error("unknown-top", &GOOD.replacen("\"camera\"", "\"lights\": 1, \"camera\"", 1), &[], "lights");
-    expect_error("unknown-camera", &GOOD.replacen("\"fov\": 40", "\"fov\": 40, \"aperture\": 2", 1), &[], "camera");
-    expect_error("unknown-material", &GOOD.replacen("\"reflectance\": 0.5", "\"reflectance\": 0.5, \"gloss\": 1", 1), &[], "materials.white");
-    expect_error("shape-field-of-other-kind", &GOOD.replacen("\"radius\": 0.5", "\"radius\": 0.5, \"corners\": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]]", 1), &[], "shapes[1].corners");
+    expect_error(
+        "unknown-top",
+        &GOOD.replacen("\"camera\"", "\"lights\": 1, \"camera\"", 1),
+        &[],
+        "lights",
+    );
+    expect_error(
+        "unknown-camera",
+        &GOOD.replacen("\"fov\": 40", "\"fov\": 40, \"aperture\": 2", 1),
+        &[],
+        "camera",
+    );
+    expect_error(
+        "unknown-material",
+        &GOOD.replacen(
+            "\"reflectance\": 0.5",
+            "\"reflectance\": 0.5, \"gloss\": 1",
+            1,
+        ),
+        &[],
+        "materials.white",
+    );
+    expect_error(
+        "shape-field-of-other-kind",
+        &GOOD.replacen(
+            "\"radius\": 0.5",
+            "\"radius\": 0.5, \"corners\": [[0,0,0],[1,0,0],[1,1,0],[0,1,0]]",
+            1,
+        ),
+        &[],
+        "shapes[1].corners",
+    );
 }
 
 #[test]
 fn missing_fields() {
-    expect_error("missing-camera", &GOOD.replacen("\"camera\"", "\"camera_\"", 1), &[], "camera");
-    expect_error("missing-radius", &GOOD.replacen(", \"radius\": 0.5", "", 1), &[], "shapes[1].radius");
-    expect_error("missing-qy", &GOOD.replacen("\"quantum_yield\": 0.9, ", "", 1), &[], "quantum_yield");
+    expect_error(
+        "missing-camera",
+        &GOOD.replacen("\"camera\"", "\"camera_\"", 1),
+        &[],
+        "camera",
+    );
+    expect_error(
+        "missing-radius",
+        &GOOD.replacen(", \"radius\": 0.5", "", 1),
+        &[],
+        "shapes[1].radius",
+    );
+    expect_error(
+        "missing-qy",
+        &GOOD.replacen("\"quantum_yield\": 0.9, ", "", 1),
+        &[],
+        "quantum_yield",
+    );
 }
 
 #[test]
@@ -78,9 +140,17 @@ fn missing_files() {
     let (code, err) = run(&["/nonexistent/scene.json", "-o", "/tmp/x.exr"]);
     assert_eq!(code, 2);
     assert!(err.contains("/nonexistent/scene.json"), "{err}");
-    let t = GOOD.replacen("\"reflectance\": 0.5", "\"reflectance\": { \"type\": \"tabulated\", \"file\": \"nope.csv\" }", 1);
+    let t = GOOD.replacen(
+        "\"reflectance\": 0.5",
+        "\"reflectance\": { \"type\": \"tabulated\", \"file\": \"nope.csv\" }",
+        1,
+    );
     expect_error("missing-csv", &t, &[], "materials.white.reflectance.file");
-    let t = GOOD.replacen("\"type\": \"lambert\", \"reflectance\": 0.5", "\"type\": \"reradiation\", \"file\": \"nope.BFC\"", 1);
+    let t = GOOD.replacen(
+        "\"type\": \"lambert\", \"reflectance\": 0.5",
+        "\"type\": \"reradiation\", \"file\": \"nope.BFC\"",
+        1,
+    );
     expect_error("missing-bfc", &t, &[], "materials.white.file");
     let t = GOOD.replacen("\"type\": \"sphere\", \"name\": \"ball\", \"material\": \"dye\", \"center\": [0, 0, 0], \"radius\": 0.5", "\"type\": \"obj\", \"material\": \"dye\", \"file\": \"nope.obj\"", 1);
     expect_error("missing-obj", &t, &[], "shapes[1].file");
@@ -88,37 +158,114 @@ fn missing_files() {
 
 #[test]
 fn nan_and_negative_values() {
-    expect_error("nan", &GOOD.replacen("\"radius\": 0.5", "\"radius\": NaN", 1), &[], "shapes[1].radius");
-    expect_error("negative-radius", &GOOD.replacen("\"radius\": 0.5", "\"radius\": -0.5", 1), &[], "shapes[1].radius");
-    expect_error("negative-reflectance", &GOOD.replacen("\"reflectance\": 0.5", "\"reflectance\": -0.5", 1), &[], "materials.white.reflectance");
-    expect_error("negative-emission-scale", &GOOD.replacen("\"spectrum\": 5", "\"spectrum\": 5, \"scale\": -1", 1), &[], "shapes[2].emission.scale");
-    expect_error("huge-number", &GOOD.replacen("\"radius\": 0.5", "\"radius\": 1e999", 1), &[], "shapes[1].radius");
+    expect_error(
+        "nan",
+        &GOOD.replacen("\"radius\": 0.5", "\"radius\": NaN", 1),
+        &[],
+        "shapes[1].radius",
+    );
+    expect_error(
+        "negative-radius",
+        &GOOD.replacen("\"radius\": 0.5", "\"radius\": -0.5", 1),
+        &[],
+        "shapes[1].radius",
+    );
+    expect_error(
+        "negative-reflectance",
+        &GOOD.replacen("\"reflectance\": 0.5", "\"reflectance\": -0.5", 1),
+        &[],
+        "materials.white.reflectance",
+    );
+    expect_error(
+        "negative-emission-scale",
+        &GOOD.replacen("\"spectrum\": 5", "\"spectrum\": 5, \"scale\": -1", 1),
+        &[],
+        "shapes[2].emission.scale",
+    );
+    expect_error(
+        "huge-number",
+        &GOOD.replacen("\"radius\": 0.5", "\"radius\": 1e999", 1),
+        &[],
+        "shapes[1].radius",
+    );
 }
 
 #[test]
 fn fluorescence_parameters_out_of_range() {
-    expect_error("c>1", &GOOD.replacen("\"concentration\": 0.5", "\"concentration\": 1.5", 1), &[], "materials.dye.concentration");
-    expect_error("phi<0", &GOOD.replacen("\"quantum_yield\": 0.9", "\"quantum_yield\": -0.1", 1), &[], "materials.dye.quantum_yield");
+    expect_error(
+        "c>1",
+        &GOOD.replacen("\"concentration\": 0.5", "\"concentration\": 1.5", 1),
+        &[],
+        "materials.dye.concentration",
+    );
+    expect_error(
+        "phi<0",
+        &GOOD.replacen("\"quantum_yield\": 0.9", "\"quantum_yield\": -0.1", 1),
+        &[],
+        "materials.dye.quantum_yield",
+    );
 }
 
 #[test]
 fn degenerate_geometry() {
-    expect_error("zero-area-quad", &GOOD.replacen("[[-1, -1, -1], [-1, -1, 1], [1, -1, 1], [1, -1, -1]]", "[[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]", 1), &[], "shapes[0]");
-    expect_error("zero-radius", &GOOD.replacen("\"radius\": 0.5", "\"radius\": 0", 1), &[], "shapes[1].radius");
-    expect_error("camera-target", &GOOD.replacen("\"target\": [0, 0, 0]", "\"target\": [0, 0, 3]", 1), &[], "camera.target");
+    expect_error(
+        "zero-area-quad",
+        &GOOD.replacen(
+            "[[-1, -1, -1], [-1, -1, 1], [1, -1, 1], [1, -1, -1]]",
+            "[[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]",
+            1,
+        ),
+        &[],
+        "shapes[0]",
+    );
+    expect_error(
+        "zero-radius",
+        &GOOD.replacen("\"radius\": 0.5", "\"radius\": 0", 1),
+        &[],
+        "shapes[1].radius",
+    );
+    expect_error(
+        "camera-target",
+        &GOOD.replacen("\"target\": [0, 0, 0]", "\"target\": [0, 0, 3]", 1),
+        &[],
+        "camera.target",
+    );
 }
 
 #[test]
 fn scene_without_lights() {
-    expect_error("no-lights", &GOOD.replacen(",\n      \"emission\": { \"spectrum\": 5 }", "", 1), &[], "no light");
+    expect_error(
+        "no-lights",
+        &GOOD.replacen(",\n      \"emission\": { \"spectrum\": 5 }", "", 1),
+        &[],
+        "no light",
+    );
 }
 
 #[test]
 fn malformed_data_files() {
-    let t = GOOD.replacen("\"reflectance\": 0.5", "\"reflectance\": { \"type\": \"tabulated\", \"file\": \"bad.csv\" }", 1);
-    expect_error("bad-csv", &t, &[("bad.csv", "wavelength,value\n400,0.5\n500,abc\n")], "bad.csv");
-    let t2 = GOOD.replacen("\"type\": \"lambert\", \"reflectance\": 0.5", "\"type\": \"reradiation\", \"file\": \"bad.BFC\"", 1);
-    expect_error("bad-bfc", &t2, &[("bad.BFC", "VEC_01\n380 780 10 49 300 10\nr:c: 300 310\n")], "bad.BFC");
+    let t = GOOD.replacen(
+        "\"reflectance\": 0.5",
+        "\"reflectance\": { \"type\": \"tabulated\", \"file\": \"bad.csv\" }",
+        1,
+    );
+    expect_error(
+        "bad-csv",
+        &t,
+        &[("bad.csv", "wavelength,value\n400,0.5\n500,abc\n")],
+        "bad.csv",
+    );
+    let t2 = GOOD.replacen(
+        "\"type\": \"lambert\", \"reflectance\": 0.5",
+        "\"type\": \"reradiation\", \"file\": \"bad.BFC\"",
+        1,
+    );
+    expect_error(
+        "bad-bfc",
+        &t2,
+        &[("bad.BFC", "VEC_01\n380 780 10 49 300 10\nr:c: 300 310\n")],
+        "bad.BFC",
+    );
     let (code, err) = run_scene("bad-json", "{ \"camera\": ", &[]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("scene.json"), "{err}");
@@ -144,11 +291,20 @@ fn earlier_output_survives_a_failed_run() {
     let scene = d.join("scene.json");
     std::fs::write(&scene, GOOD).unwrap();
     let out = d.join("keep.exr");
-    let (code, err) = run(&[scene.to_str().unwrap(), "--spp", "1", "-o", out.to_str().unwrap()]);
+    let (code, err) = run(&[
+        scene.to_str().unwrap(),
+        "--spp",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
     let before = std::fs::read(&out).unwrap();
     std::fs::write(&scene, "{ broken").unwrap();
-    assert_eq!(run(&[scene.to_str().unwrap(), "-o", out.to_str().unwrap()]).0, 2);
+    assert_eq!(
+        run(&[scene.to_str().unwrap(), "-o", out.to_str().unwrap()]).0,
+        2
+    );
     assert_eq!(std::fs::read(&out).unwrap(), before);
     assert!(Path::new(&out).exists());
 }

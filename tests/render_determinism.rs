@@ -18,8 +18,16 @@ fn same_seed_same_image_for_any_thread_count() {
     let scene = small("scenes/cornell-box.json");
     let opts = IntegratorOptions::default();
     let img = |threads, seed| {
-        let st = RenderSettings { spp: 4, seed, threads: Some(threads), ..Default::default() };
-        render(&scene, IntegratorKind::PtMono, &opts, &st, None).unwrap().film.xyz()
+        let st = RenderSettings {
+            spp: 4,
+            seed,
+            threads: Some(threads),
+            ..Default::default()
+        };
+        render(&scene, IntegratorKind::PtMono, &opts, &st, None)
+            .unwrap()
+            .film
+            .xyz()
     };
     let a = img(1, 7);
     let b = img(2, 7);
@@ -35,8 +43,20 @@ fn same_seed_same_image_for_any_thread_count() {
 #[test]
 fn time_limit_stops_early() {
     let scene = small("scenes/cornell-box.json");
-    let st = RenderSettings { spp: 1_000_000, seed: 1, time_limit: Some(0.3), ..Default::default() };
-    let out = render(&scene, IntegratorKind::PtMono, &IntegratorOptions::default(), &st, None).unwrap();
+    let st = RenderSettings {
+        spp: 1_000_000,
+        seed: 1,
+        time_limit: Some(0.3),
+        ..Default::default()
+    };
+    let out = render(
+        &scene,
+        IntegratorKind::PtMono,
+        &IntegratorOptions::default(),
+        &st,
+        None,
+    )
+    .unwrap();
     assert!(out.film.spp >= 1 && out.film.spp < 1_000_000);
     assert!(out.seconds < 5.0);
 }

@@ -19,11 +19,11 @@ pub fn write_atomic(
     path: &Path,
     f: impl FnOnce(&Path) -> Result<(), String>,
 ) -> Result<(), String> {
-    if let Some(dir) = path.parent() {
-        if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot create folder '{}': {e}", dir.display()))?;
-        }
+    if let Some(dir) = path.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create folder '{}': {e}", dir.display()))?;
     }
     let tmp = temp_path(path);
     let r = f(&tmp);

@@ -220,6 +220,7 @@ impl Sampler {
         }
     }
     /// Uniform in [0, 1).
+    #[allow(clippy::should_implement_trait)]
     #[inline]
     pub fn next(&mut self) -> f32 {
         // 24 random bits: exactly representable, never 1.0.

@@ -163,10 +163,10 @@ pub fn run<I: Integrator>(
                 stats.paths as f64 / secs.max(1e-9) / 1e6
             ));
         }
-        if let Some(cb) = on_pass.as_mut() {
-            if !cb(&film, &stats, secs) {
-                break;
-            }
+        if let Some(cb) = on_pass.as_mut()
+            && !cb(&film, &stats, secs)
+        {
+            break;
         }
         if settings.time_limit.is_some_and(|t| secs >= t) {
             break;

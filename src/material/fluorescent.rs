@@ -249,7 +249,7 @@ mod tests {
             for camera in [true, false] {
                 let l0 = if camera { 520.0 } else { 400.0 };
                 let n = 200_000;
-                let mut hist = vec![0u32; 50];
+                let mut hist = [0u32; 50];
                 let mut stays = 0;
                 for _ in 0..n {
                     let s = if camera {

@@ -119,14 +119,14 @@ impl Integrator for PtMono {
             prev_p = it.p;
             ray = next;
             lambda = lambda_in;
-            if let Some(rr) = self.rr_depth {
-                if depth + 1 >= rr {
-                    let q = beta.min(0.95);
-                    if sampler.next() >= q {
-                        break;
-                    }
-                    beta /= q;
+            if let Some(rr) = self.rr_depth
+                && depth + 1 >= rr
+            {
+                let q = beta.min(0.95);
+                if sampler.next() >= q {
+                    break;
                 }
+                beta /= q;
             }
         }
         sink.add(to_xyz * radiance);
