@@ -1,0 +1,351 @@
+//! `pt-hero`: hero wavelength spectral sampling (Wilkie et al. 2014) with fluorescent vertices
+//! (bispectral HWSS, Mojzík §6.2).
+//!
+//! The hero wavelength is sampled over the camera range and the other lanes are rotated from it
+//! (`HeroWavelengths::rotate`). The hero lane makes every directional decision; since all
+//! directional pdfs are wavelength independent here (diffuse lobes, no media), every lane is an
+//! unbiased single-wavelength estimator along the same path, and the HWSS balance heuristic over
+//! the lanes reduces to weighting lane j by 1 / Σ_k p(λ_k) (for uniform hero sampling that is
+//! |range| / N, the plain average). At a fluorescent vertex each lane samples its own incident
+//! wavelength (Jung 5.3, own random numbers); with the correction term t* of Mojzík §6.2 each
+//! lane keeps f_j / (p_dir · p_shift,j), and the whole vector is zeroed when any lane's shift
+//! probability is zero.
+//!
+//! The 4-lane hot path runs on glam `Vec4`; other lane counts use a fixed 16-wide array.
+
+use super::{light_pdf_solid, sample_diffuse, sample_light_connection};
+use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
+use crate::material::{Bbrrdf, Material, WavelengthSampling};
+use crate::scene::{NONE, Scene};
+use crate::spectrum::cie::{CameraWavelengths, cmf};
+use crate::spectrum::hero::HeroWavelengths;
+use glam::{Vec3, Vec4};
+use std::ops::{Add, AddAssign, Mul, MulAssign};
+
+/// Largest lane count (`IntegratorOptions::validate` allows 1–16).
+pub const MAX_LANES: usize = 16;
+
+/// Per-lane arithmetic of the hero path: `Vec4` for 4 lanes, [`LaneArr`] otherwise. Lanes past
+/// the active count are kept at zero.
+pub trait Lanes:
+    Copy
+    + Add<Output = Self>
+    + AddAssign
+    + Mul<Output = Self>
+    + MulAssign
+    + Mul<f32, Output = Self>
+    + MulAssign<f32>
+{
+    const ZERO: Self;
+    fn splat_n(n: usize, v: f32) -> Self;
+    /// Build from `f(j)` for the first `n` lanes, evaluated in lane order.
+    fn from_fn(n: usize, f: impl FnMut(usize) -> f32) -> Self;
+    fn lane(&self, j: usize) -> f32;
+    fn max_lane(self) -> f32;
+    fn dot(self, o: Self) -> f32;
+}
+
+impl Lanes for Vec4 {
+    const ZERO: Self = Vec4::ZERO;
+    #[inline(always)]
+    fn splat_n(_: usize, v: f32) -> Self {
+        Vec4::splat(v)
+    }
+    #[inline(always)]
+    fn from_fn(_: usize, mut f: impl FnMut(usize) -> f32) -> Self {
+        let a = f(0);
+        let b = f(1);
+        let c = f(2);
+        let d = f(3);
+        Vec4::new(a, b, c, d)
+    }
+    #[inline(always)]
+    fn lane(&self, j: usize) -> f32 {
+        self[j]
+    }
+    #[inline(always)]
+    fn max_lane(self) -> f32 {
+        self.max_element()
+    }
+    #[inline(always)]
+    fn dot(self, o: Self) -> f32 {
+        Vec4::dot(self, o)
+    }
+}
+
+/// Up to 16 lanes for lane counts other than 4 (the generic fallback).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneArr(pub [f32; MAX_LANES]);
+
+impl Add for LaneArr {
+    type Output = Self;
+    #[inline]
+    fn add(mut self, o: Self) -> Self {
+        self += o;
+        self
+    }
+}
+impl AddAssign for LaneArr {
+    #[inline]
+    fn add_assign(&mut self, o: Self) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a += b;
+        }
+    }
+}
+impl Mul for LaneArr {
+    type Output = Self;
+    #[inline]
+    fn mul(mut self, o: Self) -> Self {
+        self *= o;
+        self
+    }
+}
+impl MulAssign for LaneArr {
+    #[inline]
+    fn mul_assign(&mut self, o: Self) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a *= b;
+        }
+    }
+}
+impl Mul<f32> for LaneArr {
+    type Output = Self;
+    #[inline]
+    fn mul(mut self, s: f32) -> Self {
+        self *= s;
+        self
+    }
+}
+impl MulAssign<f32> for LaneArr {
+    #[inline]
+    fn mul_assign(&mut self, s: f32) {
+        for a in &mut self.0 {
+            *a *= s;
+        }
+    }
+}
+
+impl Lanes for LaneArr {
+    const ZERO: Self = LaneArr([0.0; MAX_LANES]);
+    #[inline]
+    fn splat_n(n: usize, v: f32) -> Self {
+        let mut a = [0.0; MAX_LANES];
+        a[..n].fill(v);
+        LaneArr(a)
+    }
+    #[inline]
+    fn from_fn(n: usize, mut f: impl FnMut(usize) -> f32) -> Self {
+        let mut a = [0.0; MAX_LANES];
+        for (j, x) in a[..n].iter_mut().enumerate() {
+            *x = f(j);
+        }
+        LaneArr(a)
+    }
+    #[inline]
+    fn lane(&self, j: usize) -> f32 {
+        self.0[j]
+    }
+    #[inline]
+    fn max_lane(self) -> f32 {
+        self.0.iter().fold(0.0f32, |m, &x| m.max(x))
+    }
+    #[inline]
+    fn dot(self, o: Self) -> f32 {
+        self.0.iter().zip(o.0).map(|(a, b)| a * b).sum()
+    }
+}
+
+pub struct PtHero {
+    max_depth: u32,
+    lanes: usize,
+    camera_wavelengths: CameraWavelengths,
+    wavelength_sampling: WavelengthSampling,
+    mis: MisHeuristic,
+    rr_depth: Option<u32>,
+}
+
+impl PtHero {
+    pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
+        if scene.has_media {
+            return Err("pt-hero does not support participating media yet".into());
+        }
+        if o.lanes == 0 || o.lanes as usize > MAX_LANES {
+            return Err(format!("lanes must be 1–{MAX_LANES}, got {}", o.lanes));
+        }
+        if scene
+            .materials
+            .iter()
+            .any(|m| m.wavelength_dependent_directions())
+        {
+            return Err(
+                "pt-hero assumes wavelength-independent directional sampling (diffuse lobes)"
+                    .into(),
+            );
+        }
+        Ok(PtHero {
+            max_depth: o.max_depth,
+            lanes: o.lanes as usize,
+            camera_wavelengths: o.camera_wavelengths,
+            wavelength_sampling: o.wavelength_sampling,
+            mis: o.mis,
+            rr_depth: o.rr_depth,
+        })
+    }
+
+    /// One camera path carrying `self.lanes` wavelengths in `L`.
+    #[inline(always)]
+    fn trace<L: Lanes>(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        sink: &mut SampleSink,
+    ) {
+        let n = self.lanes;
+        let obs = &scene.observer;
+        let (hero, pdf_hero) = obs.sample_wavelength(self.camera_wavelengths, sampler.next());
+        if !(pdf_hero > 0.0) {
+            return;
+        }
+        let mut lam = [0.0f32; MAX_LANES];
+        HeroWavelengths::rotate(hero, obs.range, &mut lam[..n]);
+        // HWSS balance heuristic over the lanes (Wilkie et al. 2014, eq. 9): lane j gets
+        // 1 / Σ_k p(λ_k); the rotated set is the same whichever lane is the hero.
+        let pdf_sum: f32 = match self.camera_wavelengths {
+            CameraWavelengths::Uniform => n as f32 / obs.range.width(),
+            CameraWavelengths::Cmf => lam[..n]
+                .iter()
+                .map(|&l| obs.pdf_wavelength(CameraWavelengths::Cmf, l))
+                .sum(),
+        };
+        if !(pdf_sum > 0.0) {
+            return;
+        }
+        let cam_scale = obs.inv_y_integral / pdf_sum;
+        let cw: [Vec3; MAX_LANES] =
+            std::array::from_fn(|j| if j < n { cmf(lam[j]) } else { Vec3::ZERO });
+        let wx = L::from_fn(n, |j| cw[j].x);
+        let wy = L::from_fn(n, |j| cw[j].y);
+        let wz = L::from_fn(n, |j| cw[j].z);
+
+        let mut lambda = L::from_fn(n, |j| lam[j]);
+        let mut beta = L::splat_n(n, 1.0);
+        let mut radiance = L::ZERO;
+        let mut pdf_dir_prev = 0.0f32;
+        let mut ray = scene.camera.generate_ray(x, y);
+        let mut prev_p = ray.o;
+        let fluorescent = scene.has_fluorescence;
+        for depth in 0..self.max_depth {
+            sink.stats.rays += 1;
+            let Some(it) = scene.intersect(&ray, f32::INFINITY) else {
+                break;
+            };
+            let wo = -ray.d;
+            let segments = depth as usize + 1;
+            // Emitter hit by the camera ray or a BSDF-sampled ray (MIS against NEE, scalar:
+            // directional pdfs do not depend on the lane).
+            if it.light != NONE {
+                let light = &scene.lights[it.light as usize];
+                if light.emits_towards(it.n, wo) {
+                    let le = L::from_fn(n, |j| light.spectrum.eval(lambda.lane(j)));
+                    let w = if depth == 0 {
+                        1.0
+                    } else {
+                        self.mis
+                            .weight2(pdf_dir_prev, light_pdf_solid(scene, prev_p, &it))
+                    };
+                    let c = beta * le * w;
+                    if c.max_lane() > 0.0 {
+                        radiance += c;
+                        sink.stats.contribution(segments);
+                    }
+                }
+            }
+            if it.material == NONE || segments >= self.max_depth as usize {
+                break;
+            }
+            let m: &Material = &scene.materials[it.material as usize];
+            if fluorescent && m.is_fluorescent() {
+                // Each lane samples its own λin (Jung 5.3) with its own random numbers.
+                // Correction term t* (Mojzík §6.2): lane j keeps f_j / (p_dir · p_shift,j), and
+                // the vector is zeroed if any lane's shift probability is zero.
+                let mut valid = true;
+                let mut w = [0.0f32; MAX_LANES];
+                let new_lambda = L::from_fn(n, |j| {
+                    let s = m.sample_wavelength_camera(
+                        lambda.lane(j),
+                        sampler.next2(),
+                        self.wavelength_sampling,
+                    );
+                    if !(s.pdf > 0.0) || !s.weight.is_finite() {
+                        valid = false;
+                    }
+                    w[j] = s.weight;
+                    s.lambda
+                });
+                if !valid {
+                    break;
+                }
+                beta *= L::from_fn(n, |j| w[j]);
+                lambda = new_lambda;
+            } else {
+                beta *= L::from_fn(n, |j| m.diagonal(lambda.lane(j)));
+            }
+            if !(beta.max_lane() > 0.0) {
+                break;
+            }
+            // Next-event estimation at every lane's λin; the hero's light sample serves all.
+            if let Some(c) = sample_light_connection(scene, &it, wo, sampler, sink.stats) {
+                let light = &scene.lights[c.light];
+                let le = L::from_fn(n, |j| light.spectrum.eval(lambda.lane(j)));
+                let pdf_bsdf = c.cos_surface * Material::DIFFUSE;
+                let w = self.mis.weight2(c.pdf_solid, pdf_bsdf);
+                let contrib = beta * le * (Material::DIFFUSE * c.cos_surface / c.pdf_solid * w);
+                if contrib.max_lane() > 0.0 {
+                    radiance += contrib;
+                    sink.stats.contribution(segments + 1);
+                }
+            }
+            // Continue with the hero's cosine sample: f·cos/pdf = 1 for the diffuse lobe.
+            let (next, _wi, pdf) = sample_diffuse(&it, wo, sampler.next2());
+            pdf_dir_prev = pdf;
+            prev_p = it.p;
+            ray = next;
+            if let Some(rr) = self.rr_depth {
+                if depth + 1 >= rr {
+                    // Wavelength-set-wide roulette on the largest lane.
+                    let q = beta.max_lane().min(0.95);
+                    if sampler.next() >= q {
+                        break;
+                    }
+                    beta *= 1.0 / q;
+                }
+            }
+        }
+        let xyz = Vec3::new(radiance.dot(wx), radiance.dot(wy), radiance.dot(wz)) * cam_scale;
+        sink.add(xyz);
+    }
+}
+
+impl Integrator for PtHero {
+    type Scratch = ();
+    fn scratch(&self, _: &Scene) {}
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        _: &mut (),
+        sink: &mut SampleSink,
+    ) {
+        if self.lanes == 4 {
+            self.trace::<Vec4>(scene, x, y, sampler, sink)
+        } else {
+            self.trace::<LaneArr>(scene, x, y, sampler, sink)
+        }
+    }
+}
