@@ -50,7 +50,12 @@ fn assert_close(what: &str, got: Vec3, want: Vec3) {
     eprintln!("{what}: Y rel err {ey:.4}, rgb rel err {e:.4?} (rgb {rgb} vs {want_rgb})");
     assert!(ey < 0.01, "{what}: Y {} vs {}", got.y, want.y);
     for (c, e) in e.iter().enumerate() {
-        assert!(*e < 0.01, "{what}: channel {c}: {} vs {}", rgb[c], want_rgb[c]);
+        assert!(
+            *e < 0.01,
+            "{what}: channel {c}: {} vs {}",
+            rgb[c],
+            want_rgb[c]
+        );
     }
 }
 
