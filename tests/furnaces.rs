@@ -6,12 +6,12 @@
 //!   L(λ) = (Le + Φ e s) / (1 − d),  s = c∫a Le/(1 − d) / (1 − cΦ∫ a e/(1 − d)),
 //! computed here from the parsed material parameters.
 //!
-//! Sample counts: 32×32 pixels × 512 spp = 524k camera paths per render (hero: ×4 lanes); the
+//! Sample counts: 32×32 pixels × 1024 spp = 1M camera paths per render (Lambert: 256 spp) (hero: ×4 lanes); the
 //! relative error of Y and of each linear-sRGB channel must stay below 1 %.
 //! max_depth = 64: each segment multiplies the throughput by at most max d = 0.5 (the
 //! fluorescent loop gain cΦ∫ a e/(1 − d) is 0 because absorption and emission do not overlap,
 //! so at most one shift happens), so truncation leaves < 0.5^63 ≈ 1e-19 of L. In a closed
-//! furnace no path escapes, so Russian roulette from segment 3 on (unbiased) keeps the cost at a
+//! furnace no path escapes, so Russian roulette from segment 6 on (unbiased) keeps the cost at a
 //! few segments per path instead of 64.
 
 use glam::Vec3;
@@ -25,7 +25,7 @@ use stokes::spectrum::{Spectrum, xyz_to_linear_srgb};
 fn mean_xyz(scene: &Scene, kind: IntegratorKind, cw: CameraWavelengths, spp: u32) -> Vec3 {
     let opts = IntegratorOptions {
         max_depth: 64,
-        rr_depth: Some(3),
+        rr_depth: Some(6),
         camera_wavelengths: cw,
         ..Default::default()
     };
@@ -101,7 +101,7 @@ fn lambert_furnace_pt_hero() {
 fn fluorescent_furnace_pt_mono() {
     let scene = Scene::load(Path::new("scenes/furnace-fluorescent.json")).unwrap();
     let want = fluorescent_furnace_xyz(&scene);
-    let got = mean_xyz(&scene, IntegratorKind::PtMono, CameraWavelengths::Cmf, 512);
+    let got = mean_xyz(&scene, IntegratorKind::PtMono, CameraWavelengths::Cmf, 1024);
     assert_close("fluorescent pt-mono cmf", got, want);
 }
 
@@ -110,7 +110,7 @@ fn fluorescent_furnace_pt_hero() {
     let scene = Scene::load(Path::new("scenes/furnace-fluorescent.json")).unwrap();
     let want = fluorescent_furnace_xyz(&scene);
     for cw in [CameraWavelengths::Uniform, CameraWavelengths::Cmf] {
-        let got = mean_xyz(&scene, IntegratorKind::PtHero, cw, 512);
+        let got = mean_xyz(&scene, IntegratorKind::PtHero, cw, 1024);
         assert_close(&format!("fluorescent pt-hero {cw:?}"), got, want);
     }
 }
