@@ -19,6 +19,7 @@ use crate::material::{Bbrrdf, Material, WavelengthSampling};
 use crate::scene::{NONE, Scene};
 use crate::spectrum::cie::{CameraWavelengths, cmf};
 use crate::spectrum::hero::HeroWavelengths;
+use crate::spectrum::{Domain, Spectrum};
 use glam::{Vec3, Vec4};
 use std::ops::{Add, AddAssign, Mul, MulAssign};
 
@@ -40,6 +41,12 @@ pub trait Lanes:
     fn splat_n(n: usize, v: f32) -> Self;
     /// Build from `f(j)` for the first `n` lanes, evaluated in lane order.
     fn from_fn(n: usize, f: impl FnMut(usize) -> f32) -> Self;
+    /// Like `from_fn` for a function returning two values per lane.
+    fn from_fn2(n: usize, f: impl FnMut(usize) -> (f32, f32)) -> (Self, Self);
+    /// The hero set: λ_j = lo + ((λ_h − lo) + j·W/n) mod W (`HeroWavelengths::rotate`).
+    fn rotate(n: usize, hero: f32, range: Domain) -> Self;
+    /// `v` where lo ≤ λ ≤ hi, else 0 (a box spectrum).
+    fn box_mask(self, lo: f32, hi: f32, v: f32) -> Self;
     fn lane(&self, j: usize) -> f32;
     fn max_lane(self) -> f32;
     fn dot(self, o: Self) -> f32;
@@ -58,6 +65,26 @@ impl Lanes for Vec4 {
         let c = f(2);
         let d = f(3);
         Vec4::new(a, b, c, d)
+    }
+    #[inline(always)]
+    fn from_fn2(_: usize, mut f: impl FnMut(usize) -> (f32, f32)) -> (Self, Self) {
+        let a = f(0);
+        let b = f(1);
+        let c = f(2);
+        let d = f(3);
+        (Vec4::new(a.0, b.0, c.0, d.0), Vec4::new(a.1, b.1, c.1, d.1))
+    }
+    #[inline(always)]
+    fn rotate(_: usize, hero: f32, range: Domain) -> Self {
+        let w = range.width();
+        let x = Vec4::splat(hero - range.min) + Vec4::new(0.0, 0.25, 0.5, 0.75) * w;
+        let x = Vec4::select(x.cmpge(Vec4::splat(w)), x - Vec4::splat(w), x);
+        x + Vec4::splat(range.min)
+    }
+    #[inline(always)]
+    fn box_mask(self, lo: f32, hi: f32, v: f32) -> Self {
+        let inside = self.cmpge(Vec4::splat(lo)) & self.cmple(Vec4::splat(hi));
+        Vec4::select(inside, Vec4::splat(v), Vec4::ZERO)
     }
     #[inline(always)]
     fn lane(&self, j: usize) -> f32 {
@@ -143,6 +170,24 @@ impl Lanes for LaneArr {
         LaneArr(a)
     }
     #[inline]
+    fn from_fn2(n: usize, mut f: impl FnMut(usize) -> (f32, f32)) -> (Self, Self) {
+        let (mut a, mut b) = ([0.0; MAX_LANES], [0.0; MAX_LANES]);
+        for j in 0..n {
+            (a[j], b[j]) = f(j);
+        }
+        (LaneArr(a), LaneArr(b))
+    }
+    #[inline]
+    fn rotate(n: usize, hero: f32, range: Domain) -> Self {
+        let mut a = [0.0; MAX_LANES];
+        HeroWavelengths::rotate(hero, range, &mut a[..n]);
+        LaneArr(a)
+    }
+    #[inline]
+    fn box_mask(self, lo: f32, hi: f32, v: f32) -> Self {
+        LaneArr(self.0.map(|l| if l >= lo && l <= hi { v } else { 0.0 }))
+    }
+    #[inline]
     fn lane(&self, j: usize) -> f32 {
         self.0[j]
     }
@@ -153,6 +198,25 @@ impl Lanes for LaneArr {
     #[inline]
     fn dot(self, o: Self) -> f32 {
         self.0.iter().zip(o.0).map(|(a, b)| a * b).sum()
+    }
+}
+
+/// A spectrum at every lane; constant and box spectra without per-lane work.
+#[inline(always)]
+fn eval_lanes<L: Lanes>(s: &Spectrum, n: usize, lambda: L) -> L {
+    match s {
+        Spectrum::Constant(v) => L::splat_n(n, *v),
+        Spectrum::Box { lo, hi, value } => lambda.box_mask(*lo, *hi, *value),
+        _ => L::from_fn(n, |j| s.eval(lambda.lane(j))),
+    }
+}
+
+/// The diagonal (wavelength-preserving) coefficient at every lane.
+#[inline(always)]
+fn diagonal_lanes<L: Lanes>(m: &Material, n: usize, lambda: L) -> L {
+    match m {
+        Material::Lambert(l) => eval_lanes(&l.reflectance, n, lambda),
+        _ => L::from_fn(n, |j| m.diagonal(lambda.lane(j))),
     }
 }
 
@@ -209,28 +273,25 @@ impl PtHero {
         if !(pdf_hero > 0.0) {
             return;
         }
-        let mut lam = [0.0f32; MAX_LANES];
-        HeroWavelengths::rotate(hero, obs.range, &mut lam[..n]);
+        let mut lambda = L::rotate(n, hero, obs.range);
         // HWSS balance heuristic over the lanes (Wilkie et al. 2014, eq. 9): lane j gets
         // 1 / Σ_k p(λ_k); the rotated set is the same whichever lane is the hero.
         let pdf_sum: f32 = match self.camera_wavelengths {
             CameraWavelengths::Uniform => n as f32 / obs.range.width(),
-            CameraWavelengths::Cmf => lam[..n]
-                .iter()
-                .map(|&l| obs.pdf_wavelength(CameraWavelengths::Cmf, l))
+            CameraWavelengths::Cmf => (0..n)
+                .map(|j| obs.pdf_wavelength(CameraWavelengths::Cmf, lambda.lane(j)))
                 .sum(),
         };
         if !(pdf_sum > 0.0) {
             return;
         }
         let cam_scale = obs.inv_y_integral / pdf_sum;
-        let cw: [Vec3; MAX_LANES] =
-            std::array::from_fn(|j| if j < n { cmf(lam[j]) } else { Vec3::ZERO });
-        let wx = L::from_fn(n, |j| cw[j].x);
-        let wy = L::from_fn(n, |j| cw[j].y);
-        let wz = L::from_fn(n, |j| cw[j].z);
-
-        let mut lambda = L::from_fn(n, |j| lam[j]);
+        // Colour-matching weights of the camera lanes.
+        let (wx, wy) = L::from_fn2(n, |j| {
+            let c = cmf(lambda.lane(j));
+            (c.x, c.y)
+        });
+        let wz = L::from_fn(n, |j| cmf(lambda.lane(j)).z);
         let mut beta = L::splat_n(n, 1.0);
         let mut radiance = L::ZERO;
         let mut pdf_dir_prev = 0.0f32;
@@ -249,7 +310,7 @@ impl PtHero {
             if it.light != NONE {
                 let light = &scene.lights[it.light as usize];
                 if light.emits_towards(it.n, wo) {
-                    let le = L::from_fn(n, |j| light.spectrum.eval(lambda.lane(j)));
+                    let le = eval_lanes(&light.spectrum, n, lambda);
                     let w = if depth == 0 {
                         1.0
                     } else {
@@ -272,8 +333,7 @@ impl PtHero {
                 // Correction term t* (Mojzík §6.2): lane j keeps f_j / (p_dir · p_shift,j), and
                 // the vector is zeroed if any lane's shift probability is zero.
                 let mut valid = true;
-                let mut w = [0.0f32; MAX_LANES];
-                let new_lambda = L::from_fn(n, |j| {
+                let (new_lambda, w) = L::from_fn2(n, |j| {
                     let s = m.sample_wavelength_camera(
                         lambda.lane(j),
                         sampler.next2(),
@@ -282,16 +342,15 @@ impl PtHero {
                     if !(s.pdf > 0.0) || !s.weight.is_finite() {
                         valid = false;
                     }
-                    w[j] = s.weight;
-                    s.lambda
+                    (s.lambda, s.weight)
                 });
                 if !valid {
                     break;
                 }
-                beta *= L::from_fn(n, |j| w[j]);
+                beta *= w;
                 lambda = new_lambda;
             } else {
-                beta *= L::from_fn(n, |j| m.diagonal(lambda.lane(j)));
+                beta *= diagonal_lanes(m, n, lambda);
             }
             if !(beta.max_lane() > 0.0) {
                 break;
@@ -299,7 +358,7 @@ impl PtHero {
             // Next-event estimation at every lane's λin; the hero's light sample serves all.
             if let Some(c) = sample_light_connection(scene, &it, wo, sampler, sink.stats) {
                 let light = &scene.lights[c.light];
-                let le = L::from_fn(n, |j| light.spectrum.eval(lambda.lane(j)));
+                let le = eval_lanes(&light.spectrum, n, lambda);
                 let pdf_bsdf = c.cos_surface * Material::DIFFUSE;
                 let w = self.mis.weight2(c.pdf_solid, pdf_bsdf);
                 let contrib = beta * le * (Material::DIFFUSE * c.cos_surface / c.pdf_solid * w);
