@@ -23,7 +23,18 @@ use stokes::spectrum::cie::CameraWavelengths;
 use stokes::spectrum::{Spectrum, xyz_to_linear_srgb};
 
 fn mean_xyz(scene: &Scene, kind: IntegratorKind, cw: CameraWavelengths, spp: u32) -> Vec3 {
+    mean_xyz_lanes(scene, kind, cw, spp, 4)
+}
+
+fn mean_xyz_lanes(
+    scene: &Scene,
+    kind: IntegratorKind,
+    cw: CameraWavelengths,
+    spp: u32,
+    lanes: u32,
+) -> Vec3 {
     let opts = IntegratorOptions {
+        lanes,
         max_depth: 64,
         rr_depth: Some(6),
         camera_wavelengths: cw,
@@ -95,6 +106,15 @@ fn lambert_furnace_pt_hero() {
         let got = mean_xyz(&scene, IntegratorKind::PtHero, cw, 256);
         assert_close(&format!("lambert pt-hero {cw:?}"), got, want);
     }
+    // The generic (non-Vec4) lane path.
+    let got = mean_xyz_lanes(
+        &scene,
+        IntegratorKind::PtHero,
+        CameraWavelengths::Cmf,
+        256,
+        3,
+    );
+    assert_close("lambert pt-hero 3 lanes cmf", got, want);
 }
 
 #[test]

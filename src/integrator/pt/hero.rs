@@ -201,6 +201,12 @@ impl Lanes for LaneArr {
     }
 }
 
+/// `x > 0`, false for NaN.
+#[inline(always)]
+fn positive(x: f32) -> bool {
+    x > 0.0
+}
+
 /// A spectrum at every lane; constant and box spectra without per-lane work.
 #[inline(always)]
 fn eval_lanes<L: Lanes>(s: &Spectrum, n: usize, lambda: L) -> L {
@@ -270,7 +276,7 @@ impl PtHero {
         let n = self.lanes;
         let obs = &scene.observer;
         let (hero, pdf_hero) = obs.sample_wavelength(self.camera_wavelengths, sampler.next());
-        if !(pdf_hero > 0.0) {
+        if !positive(pdf_hero) {
             return;
         }
         let mut lambda = L::rotate(n, hero, obs.range);
@@ -282,7 +288,7 @@ impl PtHero {
                 .map(|j| obs.pdf_wavelength(CameraWavelengths::Cmf, lambda.lane(j)))
                 .sum(),
         };
-        if !(pdf_sum > 0.0) {
+        if !positive(pdf_sum) {
             return;
         }
         let cam_scale = obs.inv_y_integral / pdf_sum;
@@ -339,7 +345,7 @@ impl PtHero {
                         sampler.next2(),
                         self.wavelength_sampling,
                     );
-                    if !(s.pdf > 0.0) || !s.weight.is_finite() {
+                    if !positive(s.pdf) || !s.weight.is_finite() {
                         valid = false;
                     }
                     (s.lambda, s.weight)
@@ -352,7 +358,7 @@ impl PtHero {
             } else {
                 beta *= diagonal_lanes(m, n, lambda);
             }
-            if !(beta.max_lane() > 0.0) {
+            if !positive(beta.max_lane()) {
                 break;
             }
             // Next-event estimation at every lane's λin; the hero's light sample serves all.
@@ -372,15 +378,15 @@ impl PtHero {
             pdf_dir_prev = pdf;
             prev_p = it.p;
             ray = next;
-            if let Some(rr) = self.rr_depth {
-                if depth + 1 >= rr {
-                    // Wavelength-set-wide roulette on the largest lane.
-                    let q = beta.max_lane().min(0.95);
-                    if sampler.next() >= q {
-                        break;
-                    }
-                    beta *= 1.0 / q;
+            if let Some(rr) = self.rr_depth
+                && depth + 1 >= rr
+            {
+                // Wavelength-set-wide roulette on the largest lane.
+                let q = beta.max_lane().min(0.95);
+                if sampler.next() >= q {
+                    break;
                 }
+                beta *= 1.0 / q;
             }
         }
         let xyz = Vec3::new(radiance.dot(wx), radiance.dot(wy), radiance.dot(wz)) * cam_scale;
@@ -406,5 +412,34 @@ impl Integrator for PtHero {
         } else {
             self.trace::<LaneArr>(scene, x, y, sampler, sink)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vec4_and_generic_lanes_agree() {
+        let range = Domain {
+            min: 360.0,
+            max: 780.0,
+        };
+        for hero in [360.0, 400.0, 569.9, 700.0, 779.99] {
+            let v = Vec4::rotate(4, hero, range);
+            let a = LaneArr::rotate(4, hero, range);
+            let mut h = [0.0; 4];
+            HeroWavelengths::rotate(hero, range, &mut h);
+            for j in 0..4 {
+                assert!((v.lane(j) - h[j]).abs() < 1e-3 && (a.lane(j) - h[j]).abs() < 1e-3);
+                assert!(range.contains(v.lane(j)));
+            }
+            let (bv, ba) = (v.box_mask(450.0, 600.0, 2.0), a.box_mask(450.0, 600.0, 2.0));
+            for j in 0..4 {
+                assert_eq!(bv.lane(j), ba.lane(j));
+            }
+        }
+        // Inactive generic lanes stay zero.
+        assert_eq!(LaneArr::splat_n(3, 1.0).lane(3), 0.0);
     }
 }
