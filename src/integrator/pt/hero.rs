@@ -213,8 +213,31 @@ fn eval_lanes<L: Lanes>(s: &Spectrum, n: usize, lambda: L) -> L {
     match s {
         Spectrum::Constant(v) => L::splat_n(n, *v),
         Spectrum::Box { lo, hi, value } => lambda.box_mask(*lo, *hi, *value),
+        Spectrum::Tabulated { xs, ys } if xs.len() <= 16 => {
+            L::from_fn(n, |j| tabulated_short(xs, ys, lambda.lane(j)))
+        }
         _ => L::from_fn(n, |j| s.eval(lambda.lane(j))),
     }
+}
+
+/// `Spectrum::Tabulated` evaluation for short tables: an inlined linear scan, same result as
+/// `Spectrum::eval` (first knot above λ, clamped to 1..n−1).
+#[inline(always)]
+fn tabulated_short(xs: &[f32], ys: &[f32], l: f32) -> f32 {
+    let n = xs.len();
+    if n == 0 || l < xs[0] || l > xs[n - 1] {
+        return 0.0;
+    }
+    if n == 1 {
+        return ys[0];
+    }
+    let mut i = 1;
+    while i < n - 1 && xs[i] <= l {
+        i += 1;
+    }
+    let (x0, x1) = (xs[i - 1], xs[i]);
+    let t = (l - x0) / (x1 - x0);
+    ys[i - 1] * (1.0 - t) + ys[i] * t
 }
 
 /// The diagonal (wavelength-preserving) coefficient at every lane.
@@ -438,6 +461,16 @@ mod tests {
             for j in 0..4 {
                 assert_eq!(bv.lane(j), ba.lane(j));
             }
+        }
+        // The short-table scan matches Spectrum::eval.
+        let s = Spectrum::Tabulated {
+            xs: vec![360.0, 470.0, 510.0, 570.0, 610.0, 830.0],
+            ys: vec![0.05, 0.05, 0.6, 0.6, 0.05, 0.05],
+        };
+        for k in 0..=600 {
+            let l = 300.0 + k as f32;
+            let v = eval_lanes(&s, 4, Vec4::splat(l));
+            assert_eq!(v.lane(0), s.eval(l), "{l}");
         }
         // Inactive generic lanes stay zero.
         assert_eq!(LaneArr::splat_n(3, 1.0).lane(3), 0.0);
