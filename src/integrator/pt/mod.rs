@@ -1,8 +1,10 @@
 //! Uni-directional path tracers (Mojzík §6) and the pieces they share: next-event estimation
 //! geometry and the BSDF/light MIS.
 
+pub mod hero;
 pub mod mono;
 
+pub use hero::PtHero;
 pub use mono::PtMono;
 
 use crate::geometry::ray::spawn_ray_to;
