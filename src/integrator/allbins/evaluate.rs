@@ -100,11 +100,11 @@ pub fn visible_to_camera(scene: &Scene, a: &Vertex, cam: Vec3, rays: &mut u64) -
     !scene.occluded(&Ray::new(o, d / len), len * (1.0 - 1e-4))
 }
 
-/// Pinhole importance with a box pixel filter, normalised so a splat is one pixel sample's
-/// estimate: W_e = N_pixels / (A_film · cos⁴θ) (pbrt-v3 `PerspectiveCamera::We`, per pixel).
+/// Pinhole importance for a light-tracing splat: the pixel's W_e = N_pixels / (A_film · cos⁴θ)
+/// (pbrt-v3 `PerspectiveCamera::We` with a box pixel filter), divided by the N_pixels light
+/// sub-paths traced per pass, since film = (Σ samples + Σ splats) / spp: 1 / (A_film · cos⁴θ).
 #[inline]
 pub fn pinhole_we(scene: &Scene, cos: f32) -> f32 {
-    let c = &scene.camera;
     let c2 = cos * cos;
-    (c.width * c.height) as f32 / (c.film_area() * c2 * c2)
+    1.0 / (scene.camera.film_area() * c2 * c2)
 }

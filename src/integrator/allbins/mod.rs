@@ -31,6 +31,8 @@ pub struct BdptAllbins {
     le: Vec<Vec<f32>>,
     /// Camera importance rows [X | Y | Z]: w_c[b] = avg_b(cmf_c) · Δλ_b / ∫ȳ.
     w: Vec<f32>,
+    /// Evaluate only this strategy (s, t), unweighted (for tests of single estimators).
+    pub only: Option<(usize, usize)>,
 }
 
 /// Per-thread buffers, reused across samples.
@@ -92,7 +94,30 @@ impl BdptAllbins {
             ops,
             le,
             w,
+            only: None,
         })
+    }
+}
+
+impl BdptAllbins {
+    /// MIS weight of (s, t), or 1 when a single strategy is selected.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn weight(
+        &self,
+        scene: &Scene,
+        h: MisHeuristic,
+        light: &[Vertex],
+        camera: &[Vertex],
+        s: usize,
+        t: usize,
+        sampled: Option<&Vertex>,
+    ) -> f32 {
+        if self.only.is_some() {
+            1.0
+        } else {
+            mis::weight(scene, h, light, camera, s, t, sampled)
+        }
     }
 }
 
@@ -201,6 +226,9 @@ impl Integrator for BdptAllbins {
                 if segments == 0 || segments > max_depth || (s == 1 && t == 1) {
                     continue;
                 }
+                if self.only.is_some_and(|o| o != (s, t)) {
+                    continue;
+                }
                 if s == 0 {
                     // Camera sub-path hit an emitter.
                     let z = &camera[t - 1];
@@ -216,7 +244,7 @@ impl Integrator for BdptAllbins {
                     if c == Vec3::ZERO {
                         continue;
                     }
-                    let w = mis::weight(scene, self.mis, light, camera, 0, t, None);
+                    let w = self.weight(scene, self.mis, light, camera, 0, t, None);
                     value += c * w;
                     sink.stats.contribution(segments);
                 } else if t == 1 {
@@ -245,7 +273,7 @@ impl Integrator for BdptAllbins {
                         continue;
                     }
                     let zc = Vertex::camera(cam.origin, cam.forward);
-                    let w = mis::weight(scene, self.mis, light, camera, s, 1, Some(&zc));
+                    let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
                     if sink.splat(px, py, c * w) {
                         sink.stats.contribution(segments);
                     }
@@ -280,7 +308,7 @@ impl Integrator for BdptAllbins {
                     if c == Vec3::ZERO || !visible(scene, z, yv, &mut rays) {
                         continue;
                     }
-                    let w = mis::weight(
+                    let w = self.weight(
                         scene,
                         self.mis,
                         light,
