@@ -79,8 +79,8 @@ fn furnace_fluorescent_closed_form() {
             * h
     };
     let num = m.c as f64 * integ(&|l| m.a.eval(l) as f64 / (1.0 - d(l)));
-    let den = 1.0
-        - (m.c * m.phi) as f64 * integ(&|l| (m.a.eval(l) * m.e.eval(l)) as f64 / (1.0 - d(l)));
+    let den =
+        1.0 - (m.c * m.phi) as f64 * integ(&|l| (m.a.eval(l) * m.e.eval(l)) as f64 / (1.0 - d(l)));
     let s = num / den;
     let want = scene
         .observer
@@ -139,11 +139,8 @@ fn region_stats(
     (0..REGIONS.len())
         .map(|r| {
             let m = runs.iter().map(|v| v[r]).sum::<Vec3>() / seeds as f32;
-            let var = runs
-                .iter()
-                .map(|v| (v[r] - m) * (v[r] - m))
-                .sum::<Vec3>()
-                / (seeds - 1) as f32;
+            let var =
+                runs.iter().map(|v| (v[r] - m) * (v[r] - m)).sum::<Vec3>() / (seeds - 1) as f32;
             (m, (var / seeds as f32).powf(0.5))
         })
         .collect()
@@ -158,8 +155,8 @@ fn agrees_with(name: &str, reference: IntegratorKind, spp_ref: u32, spp: u32) {
         max_depth: 8,
         ..Default::default()
     };
-    let a = region_stats(&scene, IntegratorKind::BdptAllbins, &opts, spp, 4);
-    let b = region_stats(&scene, reference, &opts, spp_ref, 4);
+    let a = region_stats(&scene, IntegratorKind::BdptAllbins, &opts, spp, 8);
+    let b = region_stats(&scene, reference, &opts, spp_ref, 8);
     for (r, ((ma, sa), (mb, sb))) in a.iter().zip(&b).enumerate() {
         for c in 0..3 {
             let sigma = (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();

@@ -3,8 +3,8 @@
 //! connection costs O(bins) whatever the path length.
 
 use super::subpath::{Vertex, VertexKind};
-use crate::geometry::ray::spawn_ray_to;
 use crate::geometry::Ray;
+use crate::geometry::ray::spawn_ray_to;
 use crate::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;

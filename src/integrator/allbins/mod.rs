@@ -84,8 +84,16 @@ impl BdptAllbins {
             return Err("bdpt-allbins: the scene has no lights".into());
         }
         let grid = BinGrid::new(scene.domain, o.bin_width);
-        let ops = scene.materials.iter().map(|m| m.bin_operator(&grid)).collect();
-        let le = scene.lights.iter().map(|l| l.spectrum.to_bins(&grid)).collect();
+        let ops = scene
+            .materials
+            .iter()
+            .map(|m| m.bin_operator(&grid))
+            .collect();
+        let le = scene
+            .lights
+            .iter()
+            .map(|l| l.spectrum.to_bins(&grid))
+            .collect();
         let w = camera_rows(scene, &grid);
         Ok(BdptAllbins {
             grid,
