@@ -40,10 +40,73 @@ pub fn dot3(rows: &[f32], t: &[f32]) -> Vec3 {
     )
 }
 
-/// Whether any entry is non-zero (a sub-path whose payload vanished can stop).
+/// The bins [lo, hi) outside which a spectrum or importance row is zero. Narrow spectra
+/// (fluorescent bands, UV lights) make most connections disjoint: they cost O(1) and no ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Support {
+    pub lo: u32,
+    pub hi: u32,
+}
+
+impl Support {
+    pub const EMPTY: Support = Support { lo: 0, hi: 0 };
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.hi <= self.lo
+    }
+    #[inline]
+    pub fn intersect(self, o: Support) -> Support {
+        Support {
+            lo: self.lo.max(o.lo),
+            hi: self.hi.min(o.hi),
+        }
+    }
+    #[inline]
+    pub fn union(self, o: Support) -> Support {
+        if self.is_empty() {
+            o
+        } else if o.is_empty() {
+            self
+        } else {
+            Support {
+                lo: self.lo.min(o.lo),
+                hi: self.hi.max(o.hi),
+            }
+        }
+    }
+    /// Support of one vector (empty when it is zero in every bin).
+    #[inline]
+    pub fn of(v: &[f32]) -> Support {
+        match v.iter().position(|&x| x != 0.0) {
+            None => Support::EMPTY,
+            Some(lo) => {
+                let hi = v.iter().rposition(|&x| x != 0.0).unwrap() + 1;
+                Support {
+                    lo: lo as u32,
+                    hi: hi as u32,
+                }
+            }
+        }
+    }
+    /// Union of the supports of three rows [X | Y | Z] of length `n`.
+    #[inline]
+    pub fn of_rows(rows: &[f32], n: usize) -> Support {
+        Support::of(&rows[..n])
+            .union(Support::of(&rows[n..2 * n]))
+            .union(Support::of(&rows[2 * n..3 * n]))
+    }
+}
+
+/// `dot3` restricted to the bins of `on`.
 #[inline]
-pub fn any_nonzero(v: &[f32]) -> bool {
-    v.iter().any(|&x| x != 0.0)
+pub fn dot3_on(rows: &[f32], t: &[f32], on: Support) -> Vec3 {
+    let n = t.len();
+    let (lo, hi) = (on.lo as usize, on.hi as usize);
+    Vec3::new(
+        dot(&rows[lo..hi], &t[lo..hi]),
+        dot(&rows[n + lo..n + hi], &t[lo..hi]),
+        dot(&rows[2 * n + lo..2 * n + hi], &t[lo..hi]),
+    )
 }
 
 /// Directional factor of vertex `v` for light leaving (or importance arriving) towards `to`,

@@ -7,16 +7,18 @@
 //! (s, t) is then `w_{t−1}ᵀ · t_{s−1}` times scalar directional factors: O(bins) per connection.
 //! MIS uses directional pdfs only (Jung 6.4.2).
 
+pub mod binops;
 pub mod evaluate;
 pub mod mis;
 pub mod subpath;
 
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
-use crate::material::{Bbrrdf, BinOperator};
+use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
-use evaluate::{any_nonzero, dot3, f_dir, geometry, pinhole_we, visible, visible_to_camera};
+use binops::SupportedOp;
+use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we, visible, visible_to_camera};
 use glam::Vec3;
 use subpath::{Vertex, VertexKind, random_walk, sample_light_origin, sample_light_vertex};
 
@@ -26,11 +28,13 @@ pub struct BdptAllbins {
     max_depth: usize,
     mis: MisHeuristic,
     /// One bin operator per material (light direction).
-    ops: Vec<BinOperator>,
+    ops: Vec<SupportedOp>,
     /// Binned emitted radiance per light.
     le: Vec<Vec<f32>>,
+    le_support: Vec<Support>,
     /// Camera importance rows [X | Y | Z]: w_c[b] = avg_b(cmf_c) · Δλ_b / ∫ȳ.
     w: Vec<f32>,
+    w_support: Support,
     /// Evaluate only this strategy (s, t), unweighted (for tests of single estimators).
     pub only: Option<(usize, usize)>,
 }
@@ -43,6 +47,8 @@ pub struct Scratch {
     spec: Vec<f32>,
     /// Importance rows leaving camera vertex j (transposed operators applied), 3·bins each.
     rows: Vec<f32>,
+    spec_support: Vec<Support>,
+    rows_support: Vec<Support>,
 }
 
 /// The camera importance rows for a grid: bin average of each CMF times the bin width, over
@@ -87,21 +93,25 @@ impl BdptAllbins {
         let ops = scene
             .materials
             .iter()
-            .map(|m| m.bin_operator(&grid))
+            .map(|m| SupportedOp::new(m.bin_operator(&grid)))
             .collect();
-        let le = scene
+        let le: Vec<Vec<f32>> = scene
             .lights
             .iter()
             .map(|l| l.spectrum.to_bins(&grid))
             .collect();
         let w = camera_rows(scene, &grid);
+        let le_support = le.iter().map(|l| Support::of(l)).collect();
+        let w_support = Support::of_rows(&w, grid.len());
         Ok(BdptAllbins {
             grid,
             max_depth: o.max_depth as usize,
             mis: o.mis,
             ops,
             le,
+            le_support,
             w,
+            w_support,
             only: None,
         })
     }
@@ -140,6 +150,8 @@ impl Integrator for BdptAllbins {
             camera: Vec::with_capacity(v),
             spec: vec![0.0; v * n],
             rows: vec![0.0; v * 3 * n],
+            spec_support: vec![Support::EMPTY; v],
+            rows_support: vec![Support::EMPTY; v],
         }
     }
 
@@ -159,6 +171,8 @@ impl Integrator for BdptAllbins {
             camera,
             spec,
             rows,
+            spec_support,
+            rows_support,
         } = sc;
 
         // Camera sub-path z0 … : rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
@@ -167,6 +181,7 @@ impl Integrator for BdptAllbins {
         let ray = cam.generate_ray(x, y);
         camera.push(Vertex::camera(ray.o, cam.forward));
         rows[..3 * n].copy_from_slice(&self.w);
+        rows_support[0] = self.w_support;
         let pdf_cam = cam.pdf_dir(ray.d.dot(cam.forward));
         let mut rays = 0u64;
         random_walk(
@@ -188,11 +203,9 @@ impl Integrator for BdptAllbins {
                 let (prev, cur) = rows.split_at_mut(j * 3 * n);
                 let prev = &prev[(j - 1) * 3 * n..];
                 let cur = &mut cur[..3 * n];
-                let op = &self.ops[m as usize];
-                for c in 0..3 {
-                    op.apply_transposed(&prev[c * n..(c + 1) * n], &mut cur[c * n..(c + 1) * n]);
-                }
-                any_nonzero(cur)
+                rows_support[j] =
+                    self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
+                !rows_support[j].is_empty()
             },
         );
 
@@ -201,6 +214,7 @@ impl Integrator for BdptAllbins {
         if max_depth >= 2 {
             let (y0, lray, pdf_dir, beta_out) = sample_light_origin(scene, sampler);
             spec[..n].copy_from_slice(&self.le[y0.light as usize]);
+            spec_support[0] = self.le_support[y0.light as usize];
             light.push(y0);
             random_walk(
                 scene,
@@ -218,11 +232,13 @@ impl Integrator for BdptAllbins {
                     let cur = &mut cur[..n];
                     if m == NONE {
                         cur.fill(0.0);
+                        spec_support[i] = Support::EMPTY;
                         return false;
                     }
-                    self.ops[m as usize].apply(&prev[(i - 1) * n..], cur);
                     // Stop once the spectrum is zero in every bin (Jung 8.2).
-                    any_nonzero(cur)
+                    spec_support[i] =
+                        self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
+                    !spec_support[i].is_empty()
                 },
             );
         }
@@ -243,12 +259,16 @@ impl Integrator for BdptAllbins {
                     if !z.is_emitter() {
                         continue;
                     }
+                    let on = rows_support[t - 2].intersect(self.le_support[z.light as usize]);
+                    if on.is_empty() {
+                        continue;
+                    }
                     let zp = &camera[t - 2];
                     if !scene.lights[z.light as usize].emits_towards(z.n, zp.p - z.p) {
                         continue;
                     }
                     let q = &rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
-                    let c = dot3(q, &self.le[z.light as usize]) * z.beta;
+                    let c = dot3_on(q, &self.le[z.light as usize], on) * z.beta;
                     if c == Vec3::ZERO {
                         continue;
                     }
@@ -258,7 +278,8 @@ impl Integrator for BdptAllbins {
                 } else if t == 1 {
                     // Light tracing: connect y_{s−1} to the pinhole and splat.
                     let yv = &light[s - 1];
-                    if yv.material == NONE {
+                    let on = self.w_support.intersect(spec_support[s - 1]);
+                    if yv.material == NONE || on.is_empty() {
                         continue;
                     }
                     let d = cam.origin - yv.p;
@@ -273,7 +294,7 @@ impl Integrator for BdptAllbins {
                     }
                     let g = cos * yv.n.dot(wdir).abs() / dist2;
                     let scal = yv.beta * fy * g * pinhole_we(scene, cos);
-                    let c = dot3(&self.w, &spec[(s - 1) * n..s * n]) * scal;
+                    let c = dot3_on(&self.w, &spec[(s - 1) * n..s * n], on) * scal;
                     if c == Vec3::ZERO {
                         continue;
                     }
@@ -287,22 +308,36 @@ impl Integrator for BdptAllbins {
                     }
                 } else {
                     let z = &camera[t - 1];
-                    if z.material == NONE {
+                    if z.material == NONE || rows_support[t - 1].is_empty() {
+                        continue;
+                    }
+                    if s >= 2
+                        && rows_support[t - 1]
+                            .intersect(spec_support[s - 1])
+                            .is_empty()
+                    {
                         continue;
                     }
                     let zp = &camera[t - 2];
                     let q = &rows[(t - 1) * 3 * n..t * 3 * n];
                     let sampled;
-                    let (yv, ys, yprev): (&Vertex, &[f32], Option<&Vertex>) = if s == 1 {
-                        sampled = sample_light_vertex(scene, sampler);
-                        (&sampled, &self.le[sampled.light as usize], None)
-                    } else {
-                        (
-                            &light[s - 1],
-                            &spec[(s - 1) * n..s * n],
-                            light.get(s.wrapping_sub(2)),
-                        )
-                    };
+                    let (yv, ys, ysup, yprev): (&Vertex, &[f32], Support, Option<&Vertex>) =
+                        if s == 1 {
+                            sampled = sample_light_vertex(scene, sampler);
+                            let l = sampled.light as usize;
+                            (&sampled, &self.le[l], self.le_support[l], None)
+                        } else {
+                            (
+                                &light[s - 1],
+                                &spec[(s - 1) * n..s * n],
+                                spec_support[s - 1],
+                                light.get(s.wrapping_sub(2)),
+                            )
+                        };
+                    let on = rows_support[t - 1].intersect(ysup);
+                    if on.is_empty() {
+                        continue;
+                    }
                     if yv.kind == VertexKind::Surface && yv.material == NONE {
                         continue;
                     }
@@ -312,7 +347,7 @@ impl Integrator for BdptAllbins {
                     if scal == 0.0 {
                         continue;
                     }
-                    let c = dot3(q, ys) * scal;
+                    let c = dot3_on(q, ys, on) * scal;
                     if c == Vec3::ZERO || !visible(scene, z, yv, &mut rays) {
                         continue;
                     }
