@@ -28,7 +28,9 @@ fn metrics(img: &[Vec3], reference: &[Vec3]) -> (f64, f64) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let name = args.get(1).map_or("scenes/fluorescent-walls.json", |s| s.as_str());
+    let name = args
+        .get(1)
+        .map_or("scenes/fluorescent-walls.json", |s| s.as_str());
     let res: u32 = args.get(2).map_or(64, |s| s.parse().unwrap());
     let secs: f64 = args.get(3).map_or(2.0, |s| s.parse().unwrap());
     let ref_spp: u32 = args.get(4).map_or(4096, |s| s.parse().unwrap());

@@ -286,3 +286,30 @@ fn refuses_wavelength_dependent_scenes_naming_the_feature() {
     };
     assert!(e.contains("participating media"), "{e}");
 }
+
+/// The power heuristic (`mis: power`) changes only the weights: same image as balance.
+#[test]
+fn power_heuristic_agrees_with_balance() {
+    let scene = small(load("cornell-box"), 16);
+    let mean = |mis| {
+        let opts = IntegratorOptions {
+            max_depth: 6,
+            mis,
+            ..Default::default()
+        };
+        let settings = RenderSettings {
+            spp: 256,
+            seed: 9,
+            ..Default::default()
+        };
+        let out = render(&scene, IntegratorKind::BdptAllbins, &opts, &settings, None).unwrap();
+        assert_eq!(out.stats.nan_inf_rejected, 0);
+        mean_xyz(&out.film.xyz())
+    };
+    let (b, p) = (
+        mean(stokes::integrator::MisHeuristic::Balance),
+        mean(stokes::integrator::MisHeuristic::Power),
+    );
+    eprintln!("balance {b:?} power {p:?}");
+    assert_close(p, b, 0.02);
+}

@@ -191,6 +191,13 @@ mod tests {
                 BinOperator::Diagonal {
                     diag: band(&mut rng, d0, d0 + 10),
                 },
+                BinOperator::Dense {
+                    diag: band(&mut rng, d0, d0 + 10),
+                    n,
+                    k: (0..n * n)
+                        .map(|j| if j / n > j % n { rng.random() } else { 0.0 })
+                        .collect(),
+                },
             ];
             for op in ops {
                 let so = SupportedOp::new(op.clone());
