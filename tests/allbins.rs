@@ -45,6 +45,7 @@ fn furnace_mean(scene: &Scene, spp: u32) -> Vec3 {
 }
 
 fn assert_close(got: Vec3, want: Vec3, rel: f32) {
+    eprintln!("got {got:?} want {want:?} rel {:?}", (got - want) / want);
     for c in 0..3 {
         assert!(
             (got[c] - want[c]).abs() <= rel * want[c].abs(),
