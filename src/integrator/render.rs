@@ -72,6 +72,12 @@ pub fn render(
             settings,
             on_pass,
         ),
+        IntegratorKind::BdptAllbins => run(
+            scene,
+            &super::allbins::BdptAllbins::new(scene, opts)?,
+            settings,
+            on_pass,
+        ),
         other => Err(format!("integrator {} is not available yet", other.name())),
     })
 }

@@ -1,0 +1,371 @@
+//! `bdpt-allbins`: a geometric bidirectional path tracer whose paths are evaluated for every
+//! wavelength bin at once (Jung 6.5, with the Alg. 6 line 4 correction of DESIGN.md §4).
+//!
+//! Sub-paths carry no wavelengths. A light sub-path carries a spectrum (one value per bin): the
+//! emission bins, then `M·t` at each vertex (`BinOperator::apply`). A camera sub-path carries
+//! importance, one row per XYZ channel, propagated with `Mᵀ·w` (`apply_transposed`). A connection
+//! (s, t) is then `w_{t−1}ᵀ · t_{s−1}` times scalar directional factors: O(bins) per connection.
+//! MIS uses directional pdfs only (Jung 6.4.2).
+
+pub mod binops;
+pub mod evaluate;
+pub mod mis;
+pub mod subpath;
+
+use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
+use crate::material::Bbrrdf;
+use crate::scene::{NONE, Scene};
+use crate::spectrum::BinGrid;
+use crate::spectrum::cie::cmf;
+use binops::SupportedOp;
+use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we, visible, visible_to_camera};
+use glam::Vec3;
+use subpath::{Vertex, VertexKind, random_walk, sample_light_origin, sample_light_vertex};
+
+/// The integrator with its per-scene precomputation.
+pub struct BdptAllbins {
+    pub grid: BinGrid,
+    max_depth: usize,
+    mis: MisHeuristic,
+    /// One bin operator per material (light direction).
+    ops: Vec<SupportedOp>,
+    /// Binned emitted radiance per light.
+    le: Vec<Vec<f32>>,
+    le_support: Vec<Support>,
+    /// Camera importance rows [X | Y | Z]: w_c[b] = avg_b(cmf_c) · Δλ_b / ∫ȳ.
+    w: Vec<f32>,
+    w_support: Support,
+    /// Evaluate only this strategy (s, t), unweighted (for tests of single estimators).
+    pub only: Option<(usize, usize)>,
+}
+
+/// Per-thread buffers, reused across samples.
+pub struct Scratch {
+    light: Vec<Vertex>,
+    camera: Vec<Vertex>,
+    /// Light spectrum leaving vertex i (material applied), `bins` values per vertex.
+    spec: Vec<f32>,
+    /// Importance rows leaving camera vertex j (transposed operators applied), 3·bins each.
+    rows: Vec<f32>,
+    spec_support: Vec<Support>,
+    rows_support: Vec<Support>,
+}
+
+/// The camera importance rows for a grid: bin average of each CMF times the bin width, over
+/// ∫ȳ (Jung eq. 4.41 discretised with the rectangle rule).
+pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
+    let n = grid.len();
+    let mut w = vec![0.0f32; 3 * n];
+    let range = scene.observer.range;
+    for b in 0..n {
+        let (lo, hi) = (grid.edge(b).max(range.min), grid.edge(b + 1).min(range.max));
+        if hi <= lo {
+            continue;
+        }
+        // ∫ cmf over [lo, hi] with a 0.05 nm midpoint rule (the table is piecewise linear).
+        let m = ((hi - lo) * 20.0).ceil().max(1.0) as usize;
+        let h = (hi - lo) as f64 / m as f64;
+        let mut acc = [0.0f64; 3];
+        for k in 0..m {
+            let c = cmf(lo + ((k as f64 + 0.5) * h) as f32);
+            acc[0] += c.x as f64;
+            acc[1] += c.y as f64;
+            acc[2] += c.z as f64;
+        }
+        for c in 0..3 {
+            w[c * n + b] = (acc[c] * h) as f32 * scene.observer.inv_y_integral;
+        }
+    }
+    w
+}
+
+impl BdptAllbins {
+    pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
+        if let Some(f) = scene.wavelength_dependent_feature() {
+            return Err(format!(
+                "bdpt-allbins needs wavelength-independent directional sampling; the scene has {f}"
+            ));
+        }
+        if scene.lights.is_empty() {
+            return Err("bdpt-allbins: the scene has no lights".into());
+        }
+        let grid = BinGrid::new(scene.domain, o.bin_width);
+        let ops = scene
+            .materials
+            .iter()
+            .map(|m| SupportedOp::new(m.bin_operator(&grid)))
+            .collect();
+        let le: Vec<Vec<f32>> = scene
+            .lights
+            .iter()
+            .map(|l| l.spectrum.to_bins(&grid))
+            .collect();
+        let w = camera_rows(scene, &grid);
+        let le_support = le.iter().map(|l| Support::of(l)).collect();
+        let w_support = Support::of_rows(&w, grid.len());
+        Ok(BdptAllbins {
+            grid,
+            max_depth: o.max_depth as usize,
+            mis: o.mis,
+            ops,
+            le,
+            le_support,
+            w,
+            w_support,
+            only: None,
+        })
+    }
+}
+
+impl BdptAllbins {
+    /// MIS weight of (s, t), or 1 when a single strategy is selected.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn weight(
+        &self,
+        scene: &Scene,
+        h: MisHeuristic,
+        light: &[Vertex],
+        camera: &[Vertex],
+        s: usize,
+        t: usize,
+        sampled: Option<&Vertex>,
+    ) -> f32 {
+        if self.only.is_some() {
+            1.0
+        } else {
+            mis::weight(scene, h, light, camera, s, t, sampled)
+        }
+    }
+}
+
+impl Integrator for BdptAllbins {
+    type Scratch = Scratch;
+
+    fn scratch(&self, _: &Scene) -> Scratch {
+        let n = self.grid.len();
+        let v = self.max_depth + 2;
+        Scratch {
+            light: Vec::with_capacity(v),
+            camera: Vec::with_capacity(v),
+            spec: vec![0.0; v * n],
+            rows: vec![0.0; v * 3 * n],
+            spec_support: vec![Support::EMPTY; v],
+            rows_support: vec![Support::EMPTY; v],
+        }
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        sc: &mut Scratch,
+        sink: &mut SampleSink,
+    ) {
+        let n = self.grid.len();
+        let max_depth = self.max_depth;
+        let Scratch {
+            light,
+            camera,
+            spec,
+            rows,
+            spec_support,
+            rows_support,
+        } = sc;
+
+        // Camera sub-path z0 … : rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
+        camera.clear();
+        let cam = &scene.camera;
+        let ray = cam.generate_ray(x, y);
+        camera.push(Vertex::camera(ray.o, cam.forward));
+        rows[..3 * n].copy_from_slice(&self.w);
+        rows_support[0] = self.w_support;
+        let pdf_cam = cam.pdf_dir(ray.d.dot(cam.forward));
+        let mut rays = 0u64;
+        random_walk(
+            scene,
+            ray,
+            pdf_cam,
+            1.0,
+            camera,
+            max_depth + 1,
+            sampler,
+            &mut rays,
+            |verts| {
+                let j = verts.len() - 1;
+                let m = verts[j].material;
+                // The last vertex (j = max_depth) is only used by s = 0.
+                if m == NONE || j >= max_depth {
+                    return false;
+                }
+                let (prev, cur) = rows.split_at_mut(j * 3 * n);
+                let prev = &prev[(j - 1) * 3 * n..];
+                let cur = &mut cur[..3 * n];
+                rows_support[j] =
+                    self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
+                !rows_support[j].is_empty()
+            },
+        );
+
+        // Light sub-path y0 … : spec[i] = M_i · spec[i−1], spec[0] = Le.
+        light.clear();
+        if max_depth >= 2 {
+            let (y0, lray, pdf_dir, beta_out) = sample_light_origin(scene, sampler);
+            spec[..n].copy_from_slice(&self.le[y0.light as usize]);
+            spec_support[0] = self.le_support[y0.light as usize];
+            light.push(y0);
+            random_walk(
+                scene,
+                lray,
+                pdf_dir,
+                beta_out,
+                light,
+                max_depth,
+                sampler,
+                &mut rays,
+                |verts| {
+                    let i = verts.len() - 1;
+                    let m = verts[i].material;
+                    let (prev, cur) = spec.split_at_mut(i * n);
+                    let cur = &mut cur[..n];
+                    if m == NONE {
+                        cur.fill(0.0);
+                        spec_support[i] = Support::EMPTY;
+                        return false;
+                    }
+                    // Stop once the spectrum is zero in every bin (Jung 8.2).
+                    spec_support[i] =
+                        self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
+                    !spec_support[i].is_empty()
+                },
+            );
+        }
+
+        let mut value = Vec3::ZERO;
+        for t in 1..=camera.len() {
+            for s in 0..=light.len() {
+                let segments = s + t - 1;
+                if segments == 0 || segments > max_depth || (s == 1 && t == 1) {
+                    continue;
+                }
+                if self.only.is_some_and(|o| o != (s, t)) {
+                    continue;
+                }
+                if s == 0 {
+                    // Camera sub-path hit an emitter.
+                    let z = &camera[t - 1];
+                    if !z.is_emitter() {
+                        continue;
+                    }
+                    let on = rows_support[t - 2].intersect(self.le_support[z.light as usize]);
+                    if on.is_empty() {
+                        continue;
+                    }
+                    let zp = &camera[t - 2];
+                    if !scene.lights[z.light as usize].emits_towards(z.n, zp.p - z.p) {
+                        continue;
+                    }
+                    let q = &rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
+                    let c = dot3_on(q, &self.le[z.light as usize], on) * z.beta;
+                    if c == Vec3::ZERO {
+                        continue;
+                    }
+                    let w = self.weight(scene, self.mis, light, camera, 0, t, None);
+                    value += c * w;
+                    sink.stats.contribution(segments);
+                } else if t == 1 {
+                    // Light tracing: connect y_{s−1} to the pinhole and splat.
+                    let yv = &light[s - 1];
+                    let on = self.w_support.intersect(spec_support[s - 1]);
+                    if yv.material == NONE || on.is_empty() {
+                        continue;
+                    }
+                    let d = cam.origin - yv.p;
+                    let dist2 = d.length_squared();
+                    let wdir = -d / dist2.sqrt();
+                    let Some((px, py, cos)) = cam.project(wdir) else {
+                        continue;
+                    };
+                    let fy = f_dir(scene, yv, light.get(s.wrapping_sub(2)), cam.origin);
+                    if fy == 0.0 {
+                        continue;
+                    }
+                    let g = cos * yv.n.dot(wdir).abs() / dist2;
+                    let scal = yv.beta * fy * g * pinhole_we(scene, cos);
+                    let c = dot3_on(&self.w, &spec[(s - 1) * n..s * n], on) * scal;
+                    if c == Vec3::ZERO {
+                        continue;
+                    }
+                    if !visible_to_camera(scene, yv, cam.origin, &mut rays) {
+                        continue;
+                    }
+                    let zc = Vertex::camera(cam.origin, cam.forward);
+                    let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
+                    if sink.splat(px, py, c * w) {
+                        sink.stats.contribution(segments);
+                    }
+                } else {
+                    let z = &camera[t - 1];
+                    if z.material == NONE || rows_support[t - 1].is_empty() {
+                        continue;
+                    }
+                    if s >= 2
+                        && rows_support[t - 1]
+                            .intersect(spec_support[s - 1])
+                            .is_empty()
+                    {
+                        continue;
+                    }
+                    let zp = &camera[t - 2];
+                    let q = &rows[(t - 1) * 3 * n..t * 3 * n];
+                    let sampled;
+                    let (yv, ys, ysup, yprev): (&Vertex, &[f32], Support, Option<&Vertex>) =
+                        if s == 1 {
+                            sampled = sample_light_vertex(scene, sampler);
+                            let l = sampled.light as usize;
+                            (&sampled, &self.le[l], self.le_support[l], None)
+                        } else {
+                            (
+                                &light[s - 1],
+                                &spec[(s - 1) * n..s * n],
+                                spec_support[s - 1],
+                                light.get(s.wrapping_sub(2)),
+                            )
+                        };
+                    let on = rows_support[t - 1].intersect(ysup);
+                    if on.is_empty() {
+                        continue;
+                    }
+                    if yv.kind == VertexKind::Surface && yv.material == NONE {
+                        continue;
+                    }
+                    let fz = f_dir(scene, z, Some(zp), yv.p);
+                    let fy = f_dir(scene, yv, yprev, z.p);
+                    let scal = fz * fy * geometry(z, yv) * z.beta * yv.beta;
+                    if scal == 0.0 {
+                        continue;
+                    }
+                    let c = dot3_on(q, ys, on) * scal;
+                    if c == Vec3::ZERO || !visible(scene, z, yv, &mut rays) {
+                        continue;
+                    }
+                    let w = self.weight(
+                        scene,
+                        self.mis,
+                        light,
+                        camera,
+                        s,
+                        t,
+                        if s == 1 { Some(yv) } else { None },
+                    );
+                    value += c * w;
+                    sink.stats.contribution(segments);
+                }
+            }
+        }
+        sink.stats.rays += rays;
+        sink.add(value);
+    }
+}
