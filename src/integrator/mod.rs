@@ -2,6 +2,7 @@
 //! stream and the sink that receives contributions. One integrator per file; the render loop is
 //! in `render.rs`.
 
+pub mod bdpt;
 pub mod pt;
 pub mod render;
 

@@ -66,6 +66,18 @@ pub fn render(
             settings,
             on_pass,
         ),
+        IntegratorKind::BdptForward => run(
+            scene,
+            &super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Forward)?,
+            settings,
+            on_pass,
+        ),
+        IntegratorKind::BdptBackward => run(
+            scene,
+            &super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Backward)?,
+            settings,
+            on_pass,
+        ),
         other => Err(format!("integrator {} is not available yet", other.name())),
     })
 }
