@@ -288,7 +288,8 @@ impl Bdpt {
     }
 }
 
-/// Build the full path of strategy (s, t) from given sub-paths, apply the integrator's reset and
+/// Build the full path of strategy (s, t) from given sub-paths (t = 1 uses the light
+/// sub-path's first vertex instead of a fresh one), apply the integrator's reset and
 /// fill all pdfs (test hook: MIS weights of all strategies for one path). Returns `None` when the
 /// path carries no light.
 pub fn connect_for_test(
@@ -300,7 +301,7 @@ pub fn connect_for_test(
     t: usize,
     sampler: &mut Sampler,
 ) -> Option<FullPath> {
-    assert!(t >= 2 || (t == 0 && s >= 2) || s == 1);
+    assert!(s >= 1 && (t >= 1 || s >= 2));
     let k = s + t;
     let mut path = FullPath::with_capacity(k);
     path.reset(k);
