@@ -247,7 +247,7 @@ impl Bdpt {
         }
         fill_pdfs(self, scene, path, s, t);
         let p = path.strategy_pdf(s, self.mode);
-        if !(p > 0.0) || !p.is_finite() {
+        if p.is_nan() || p <= 0.0 || !p.is_finite() {
             return;
         }
         let w = if self.only.is_some() {
@@ -257,7 +257,7 @@ impl Bdpt {
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
         let c = (w * f / p) as f32;
-        if !(c > 0.0) {
+        if c.is_nan() || c <= 0.0 || !c.is_finite() {
             if !c.is_finite() {
                 sink.stats.nan_inf_rejected += 1;
             }

@@ -101,7 +101,7 @@ impl FullPath {
         let k = self.k;
         // camera generates x1 … x(ŝ−1); the light generates x(k−1) … xŝ
         Self::prod(&self.pa_fwd, 1, s_hat.wrapping_sub(1).min(k))
-            * if s_hat <= k - 1 {
+            * if s_hat < k {
                 Self::prod(&self.pa_rev, s_hat, k - 1)
             } else {
                 1.0
@@ -190,5 +190,58 @@ impl FullPath {
             sum += if e == 1.0 { r } else { r * r };
         }
         1.0 / sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// k = 4: x0 camera, x1 and x2 fluorescent, x3 light. Only x1 shifts.
+    fn path() -> FullPath {
+        let mut p = FullPath::with_capacity(4);
+        p.reset(4);
+        p.shift[1] = true;
+        p.shift[2] = false;
+        p.pc = vec![1.0, 0.3, 0.6, 1.0];
+        p.big_pc = vec![0.0, 0.2, 0.4, 0.0];
+        p.pl = vec![1.0, 0.05, 0.7, 1.0];
+        p.big_pl = vec![0.0, 0.5, 0.3, 0.0];
+        p.pc0 = 0.01;
+        p.ple = 0.02;
+        p
+    }
+
+    #[test]
+    fn backward_walk_of_two_vertices_by_hand() {
+        // ŝ = 3 (x0, x1, x2 camera; x3 light): the walk starts at x2 = x(s−1) (no shift:
+        // 1 − P_l(x2) = 0.7) and stops at x1 (P_l(x1) = 0.5); below it the camera's p_c(λ0).
+        // The printed upper index s − 2 of eq. 6.11 would drop the factor of x2 (DESIGN §4).
+        let p = path();
+        let want = 0.01 * 0.5 * 0.7 * 0.02;
+        assert!((p.wavelength_pdf(3, ResetMode::Backward) - want).abs() < 1e-15);
+        // NEE and t = 0 walk from x2 as well.
+        assert!((p.wavelength_pdf(4, ResetMode::Backward) - want).abs() < 1e-15);
+        // ŝ = 2: walk from x1, which shifts: P_l(x1), light pdf of x2.
+        assert!((p.wavelength_pdf(2, ResetMode::Backward) - want).abs() < 1e-15);
+        // ŝ = 1: all light-side pdfs.
+        assert!((p.wavelength_pdf(1, ResetMode::Backward) - 0.05 * 0.7 * 0.02).abs() < 1e-15);
+    }
+
+    #[test]
+    fn forward_walk_by_hand() {
+        let p = path();
+        // ŝ = 2: walk from x2 (no shift, 1 − P_c = 0.6) to the light: camera-only pdfs.
+        let cam = 0.01 * 0.3 * 0.6;
+        assert!((p.wavelength_pdf(2, ResetMode::Forward) - cam).abs() < 1e-15);
+        assert!((p.wavelength_pdf(3, ResetMode::Forward) - cam).abs() < 1e-15);
+        assert!((p.wavelength_pdf(4, ResetMode::Forward) - cam).abs() < 1e-15);
+        // ŝ = 1 is light tracing.
+        assert!((p.wavelength_pdf(1, ResetMode::Forward) - 0.05 * 0.7 * 0.02).abs() < 1e-15);
+        // With x2 shifting too, ŝ = 2 stops at x2: p_c(λ0) p_c(x1) P_c(x2) · p_l(λ2).
+        let mut q = path();
+        q.shift[2] = true;
+        let want = 0.01 * 0.3 * 0.4 * 0.02;
+        assert!((q.wavelength_pdf(2, ResetMode::Forward) - want).abs() < 1e-15);
     }
 }

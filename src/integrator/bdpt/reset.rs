@@ -59,13 +59,14 @@ pub fn forward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mut
     for i in s..=k - 2 {
         let cur = path.lambda[i - 1];
         let v = path.v[i];
-        if let Some(m) = material(scene, v.material) {
-            if m.is_fluorescent() && sampler.next() < m.fluorescence_probability_camera(cur) {
-                // Fluorescent interaction at x_i: keep the light path's wavelengths from here.
-                path.shift[i] = true;
-                copy_light(path, i + 1);
-                return;
-            }
+        if let Some(m) = material(scene, v.material)
+            && m.is_fluorescent()
+            && sampler.next() < m.fluorescence_probability_camera(cur)
+        {
+            // Fluorescent interaction at x_i (prob. P_c): keep the light path's wavelengths.
+            path.shift[i] = true;
+            copy_light(path, i + 1);
+            return;
         }
         path.shift[i] = false;
         path.lambda[i] = cur;
@@ -79,12 +80,14 @@ pub fn backward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mu
     for i in (1..s).rev() {
         let cur = path.lambda[i];
         let v = path.v[i];
-        if let Some(m) = material(scene, v.material) {
-            if m.is_fluorescent() && sampler.next() < m.fluorescence_probability_light(cur) {
-                path.shift[i] = true;
-                copy_camera(path, i);
-                return;
-            }
+        if let Some(m) = material(scene, v.material)
+            && m.is_fluorescent()
+            && sampler.next() < m.fluorescence_probability_light(cur)
+        {
+            // Fluorescent interaction at x_i (prob. P_l): keep the camera path's wavelengths.
+            path.shift[i] = true;
+            copy_camera(path, i);
+            return;
         }
         path.shift[i] = false;
         path.lambda[i - 1] = cur;
