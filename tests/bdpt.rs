@@ -162,6 +162,7 @@ fn mean_se(v: &[Vec3]) -> (Vec3, Vec3) {
 /// |a − b| within `k` combined standard errors (plus a tiny absolute slack) per channel.
 fn assert_agree(what: &str, a: &[Vec3], b: &[Vec3], k: f32) {
     let ((ma, sa), (mb, sb)) = (mean_se(a), mean_se(b));
+    println!("{what}: {ma} ± {sa} vs {mb} ± {sb}");
     for c in 0..3 {
         let tol =
             k * (sa[c] * sa[c] + sb[c] * sb[c]).sqrt() + 1e-4 * (ma[c].abs() + mb[c].abs()) + 1e-6;
@@ -244,17 +245,17 @@ fn agree_with_pt_mono(name: &str, spp_bdpt: u32, spp_pt: u32) {
 
 #[test]
 fn agree_fluorescent_walls() {
-    agree_with_pt_mono("fluorescent-walls", 16, 64);
+    agree_with_pt_mono("fluorescent-walls", 64, 1024);
 }
 
 #[test]
 fn agree_green_spheres() {
-    agree_with_pt_mono("green-spheres", 8, 32);
+    agree_with_pt_mono("green-spheres", 16, 96);
 }
 
 #[test]
 fn agree_cornell_box() {
-    agree_with_pt_mono("cornell-box", 8, 32);
+    agree_with_pt_mono("cornell-box", 16, 96);
 }
 
 /// MIS weights of all strategies for one path sum to 1, on many sampled paths of several
