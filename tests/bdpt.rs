@@ -430,3 +430,37 @@ fn stiff_fluorescent_walls_stay_finite() {
         }
     }
 }
+
+/// The strategy images (one per (s, t), splats at their film position) add up to the image.
+#[test]
+fn strategy_images_sum_to_the_image() {
+    let mut scene = load("green-spheres");
+    small_camera(&mut scene, 16, 16);
+    let opts = IntegratorOptions {
+        max_depth: 4,
+        strategy_images: true,
+        ..Default::default()
+    };
+    let b = Bdpt::new(&scene, &opts, ResetMode::Forward).unwrap();
+    let names = b.aux_layers();
+    assert_eq!(names.len(), 2 + 3 + 4 + 5);
+    assert_eq!(names[0], "s1_t1");
+    assert_eq!(names[2], "s1_t2");
+    let settings = RenderSettings {
+        spp: 8,
+        seed: 4,
+        ..Default::default()
+    };
+    let out = run(&scene, &b, &settings, None).unwrap();
+    let f = &out.film;
+    for p in 0..f.sum.len() {
+        for c in 0..3 {
+            let total = f.sum[p][c] + f.splat[p][c];
+            let layers: f64 = f.aux.iter().map(|l| l[p][c]).sum();
+            assert!(
+                (total - layers).abs() <= 1e-4 * total.abs() + 1e-9,
+                "pixel {p}: {total} vs {layers}"
+            );
+        }
+    }
+}
