@@ -7,8 +7,8 @@ use stokes::geometry::Camera;
 use stokes::integrator::bdpt::{Bdpt, ResetMode, connect_for_test};
 use stokes::integrator::render::run;
 use stokes::integrator::{
-    Integrator, IntegratorKind, IntegratorOptions, MisHeuristic, RenderSettings, Sampler, Stats,
-    render,
+    Integrator, IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
+    Sampler, Stats, render,
 };
 use stokes::material::{Bbrrdf, Material};
 use stokes::scene::Scene;
@@ -460,6 +460,58 @@ fn strategy_images_sum_to_the_image() {
             assert!(
                 (total - layers).abs() <= 1e-4 * total.abs() + 1e-9,
                 "pixel {p}: {total} vs {layers}"
+            );
+        }
+    }
+}
+
+/// Light sub-paths with uniform wavelengths (Jung 6.2.1 option 1) and the power heuristic give
+/// the same regions as the defaults.
+#[test]
+fn uniform_light_wavelengths_and_power_heuristic_agree() {
+    let mut scene = load("fluorescent-walls");
+    small_camera(&mut scene, 24, 24);
+    let regions = [
+        ("floor", [6, 18, 20, 24]),
+        ("left", [0, 4, 8, 16]),
+        ("back", [8, 16, 8, 16]),
+    ];
+    for (kind, _) in MODES {
+        let r = |opts: IntegratorOptions| {
+            let scene = &scene;
+            move |seed: u64| {
+                let settings = RenderSettings {
+                    spp: 32,
+                    seed,
+                    ..Default::default()
+                };
+                let out = render(scene, kind, &opts, &settings, None).unwrap();
+                (out.film.xyz(), out.stats)
+            }
+        };
+        let base = region_means(&scene, &r(IntegratorOptions::default()), &regions, 0..6);
+        let uni = IntegratorOptions {
+            light_wavelengths: LightWavelengths::Uniform,
+            ..Default::default()
+        };
+        let uni = region_means(&scene, &r(uni), &regions, 10..16);
+        let pow = IntegratorOptions {
+            mis: MisHeuristic::Power,
+            ..Default::default()
+        };
+        let pow = region_means(&scene, &r(pow), &regions, 20..26);
+        for (i, (reg, _)) in regions.iter().enumerate() {
+            assert_agree(
+                &format!("{} {reg} uniform light λ", kind.name()),
+                &uni[i],
+                &base[i],
+                4.5,
+            );
+            assert_agree(
+                &format!("{} {reg} power", kind.name()),
+                &pow[i],
+                &base[i],
+                4.5,
             );
         }
     }
