@@ -106,27 +106,6 @@ fn furnace_fluorescent_converges() {
     furnace_check(&scene, want, 14, 128);
 }
 
-/// Mean Y of one unweighted strategy.
-fn strategy_mean(
-    scene: &Scene,
-    mode: ResetMode,
-    opts: &IntegratorOptions,
-    s: usize,
-    t: usize,
-    spp: u32,
-    seed: u64,
-) -> Vec3 {
-    let b = Bdpt::new(scene, opts, mode).unwrap().single_strategy(s, t);
-    let settings = RenderSettings {
-        spp,
-        seed,
-        ..Default::default()
-    };
-    let out = run(scene, &b, &settings, None).unwrap();
-    assert_eq!(out.stats.nan_inf_rejected, 0);
-    mean_xyz(&out.film.xyz())
-}
-
 /// Per-seed means of the XYZ of pixel rectangles (x0, x1, y0, y1), for one render each.
 fn region_means(
     scene: &Scene,
@@ -285,7 +264,7 @@ fn mis_weights_sum_to_one() {
                     for s in 1..=cam.len() {
                         for t in 0..=light.len() {
                             let k = s + t;
-                            if k < 2 || k > 8 || (t == 0 && s < 2) {
+                            if !(2..=8).contains(&k) || (t == 0 && s < 2) {
                                 continue;
                             }
                             let Some(p) =
