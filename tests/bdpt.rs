@@ -67,7 +67,7 @@ fn furnace_lambert_converges() {
     small_camera(&mut scene, 16, 16);
     let want = scene.observer.function_to_xyz(|_| 2.0);
     // truncation after 12 segments: ρ^12 / (1 − ρ) ≈ 5e-4 relative
-    furnace_check(&scene, want, 10, 256);
+    furnace_check(&scene, want, 10, 512);
 }
 
 #[test]
@@ -103,7 +103,7 @@ fn furnace_fluorescent_converges() {
         .observer
         .function_to_xyz(|l| (1.0 + phi * e(l as f64) * s) / (1.0 - d(l as f64)));
     assert!((want.y - 0.0).abs() > 1.0);
-    furnace_check(&scene, want, 14, 128);
+    furnace_check(&scene, want, 14, 256);
 }
 
 /// Per-seed means of the XYZ of pixel rectangles (x0, x1, y0, y1), for one render each.
