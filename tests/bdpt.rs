@@ -67,7 +67,7 @@ fn furnace_lambert_converges() {
     small_camera(&mut scene, 16, 16);
     let want = scene.observer.function_to_xyz(|_| 2.0);
     // truncation after 12 segments: ρ^12 / (1 − ρ) ≈ 5e-4 relative
-    furnace_check(&scene, want, 10, 512);
+    furnace_check(&scene, want, 10, 320);
 }
 
 #[test]
