@@ -3,6 +3,7 @@
 //! in `render.rs`.
 
 pub mod allbins;
+pub mod bdpt;
 pub mod pt;
 pub mod render;
 

@@ -72,13 +72,24 @@ pub fn render(
             settings,
             on_pass,
         ),
+        IntegratorKind::BdptForward => run(
+            scene,
+            &super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Forward)?,
+            settings,
+            on_pass,
+        ),
+        IntegratorKind::BdptBackward => run(
+            scene,
+            &super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Backward)?,
+            settings,
+            on_pass,
+        ),
         IntegratorKind::BdptAllbins => run(
             scene,
             &super::allbins::BdptAllbins::new(scene, opts)?,
             settings,
             on_pass,
         ),
-        other => Err(format!("integrator {} is not available yet", other.name())),
     })
 }
 

@@ -1,0 +1,332 @@
+//! Connecting sub-paths for every strategy (s, t), the measurement contribution f_j (eq. 6.2)
+//! and the weighted throughput w · f / p (eqs. 6.18, 6.19).
+
+use super::mis::{FullPath, ResetMode};
+use super::reset;
+use super::subpath::{
+    Vertex, VertexKind, emission_pdf_dir, light_lambda_pdf, sample_light_lambda,
+    sample_light_vertex,
+};
+use super::{Bdpt, Scratch};
+use crate::geometry::Ray;
+use crate::geometry::ray::{offset_origin, spawn_ray_to};
+use crate::integrator::{SampleSink, Sampler};
+use crate::material::{Bbrrdf, Material};
+use crate::scene::{NONE, Scene};
+use std::f64::consts::FRAC_1_PI;
+
+/// Area pdf of sampling `to` from `from` in the direction of generation (camera, light or
+/// diffuse surface), as pbrt-v4's `Vertex::Pdf`.
+fn area_pdf(scene: &Scene, from: &Vertex, to: &Vertex) -> f64 {
+    let d = to.p - from.p;
+    let d2 = d.length_squared();
+    if d2 <= 0.0 {
+        return 0.0;
+    }
+    let w = d / d2.sqrt();
+    let pdf_dir = match from.kind {
+        VertexKind::Camera => {
+            let c = w.dot(scene.camera.forward);
+            if c <= 0.0 {
+                return 0.0;
+            }
+            scene.camera.pdf_dir(c) as f64
+        }
+        VertexKind::Light => {
+            emission_pdf_dir(scene.lights[from.light as usize].two_sided, from.n, w) as f64
+        }
+        VertexKind::Surface => from.n.dot(w).abs() as f64 * FRAC_1_PI,
+    };
+    let cos_to = if to.kind == VertexKind::Camera {
+        1.0
+    } else {
+        to.n.dot(w).abs() as f64
+    };
+    pdf_dir * cos_to / d2 as f64
+}
+
+/// The measurement contribution f_j of the path (eq. 6.2) without visibility, with the pinhole
+/// importance We = 1 / (A cos⁴θ) of the whole film at unit distance (the camera strategies' pixel
+/// sample and the light-tracing splat then both estimate the pixel's average radiance).
+fn measurement(scene: &Scene, path: &FullPath) -> f64 {
+    let k = path.k;
+    let v = &path.v;
+    let e = &v[k - 1];
+    let light = &scene.lights[e.light as usize];
+    let we = (v[k - 2].p - e.p).normalize();
+    let mut f = light.le(path.lambda[k - 2], e.n, we) as f64;
+    if f <= 0.0 {
+        return 0.0;
+    }
+    for i in 1..=k - 2 {
+        let x = &v[i];
+        if x.material == NONE {
+            return 0.0;
+        }
+        let n = x.n;
+        // two-sided diffuse reflection: both neighbours on the same side
+        if n.dot(v[i - 1].p - x.p) * n.dot(v[i + 1].p - x.p) <= 0.0 {
+            return 0.0;
+        }
+        let m: &Material = &scene.materials[x.material as usize];
+        f *= m.spectral(path.lambda[i], path.lambda[i - 1], !path.shift[i]) as f64 * FRAC_1_PI;
+        if f <= 0.0 {
+            return 0.0;
+        }
+    }
+    for i in 0..k - 1 {
+        let d = v[i + 1].p - v[i].p;
+        let d2 = d.length_squared() as f64;
+        let w = d / (d2 as f32).sqrt();
+        let c0 = if i == 0 {
+            w.dot(scene.camera.forward) as f64
+        } else {
+            v[i].n.dot(w).abs() as f64
+        };
+        let c1 = v[i + 1].n.dot(w).abs() as f64;
+        f *= c0 * c1 / d2;
+        if i == 0 {
+            if c0 <= 0.0 {
+                return 0.0;
+            }
+            // We(x0 → x1) = 1 / (A cos⁴θ)
+            f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
+        }
+    }
+    f
+}
+
+/// Fill the directional and wavelength pdfs of the path for MIS (eqs. 6.3, 6.4–6.8).
+fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
+    let k = path.k;
+    for i in 0..k {
+        let x = path.v[i];
+        if i < s {
+            path.pa_fwd[i] = x.pdf_fwd as f64;
+            path.pa_rev[i] = x.pdf_rev as f64;
+        } else {
+            path.pa_fwd[i] = x.pdf_rev as f64;
+            path.pa_rev[i] = x.pdf_fwd as f64;
+        }
+    }
+    if t == 0 {
+        // the camera path hit the emitter: light point and emission pdfs at x(k−1)
+        let e = path.v[k - 1];
+        let li = e.light as usize;
+        let light = &scene.lights[li];
+        path.pa_rev[k - 1] = (scene.light_pmf(li) / light.area) as f64;
+        let mut ev = e;
+        ev.kind = VertexKind::Light;
+        path.pa_rev[k - 2] = area_pdf(scene, &ev, &path.v[k - 2]);
+    } else {
+        // the connection segment x(s−1) ↔ x_s
+        path.pa_fwd[s] = area_pdf(scene, &path.v[s - 1], &path.v[s]);
+        path.pa_rev[s - 1] = area_pdf(scene, &path.v[s], &path.v[s - 1]);
+    }
+    // wavelength pdfs of each interior vertex (eqs. 6.6–6.8)
+    for i in 1..=k.saturating_sub(2) {
+        let m: &Material = &scene.materials[path.v[i].material as usize];
+        let (li, lo, same) = (path.lambda[i], path.lambda[i - 1], !path.shift[i]);
+        if m.is_fluorescent() {
+            let ws = b.wavelength_sampling;
+            path.pc[i] = m.pdf_wavelength_camera(lo, li, same, ws) as f64;
+            path.big_pc[i] = m.fluorescence_probability_camera(lo) as f64;
+            path.pl[i] = m.pdf_wavelength_light(li, lo, same, ws) as f64;
+            path.big_pl[i] = m.fluorescence_probability_light(li) as f64;
+        } else {
+            path.pc[i] = 1.0;
+            path.big_pc[i] = 0.0;
+            path.pl[i] = 1.0;
+            path.big_pl[i] = 0.0;
+        }
+    }
+    path.pc0 = scene
+        .observer
+        .pdf_wavelength(b.camera_wavelengths, path.lambda[0]) as f64;
+    path.ple = light_lambda_pdf(
+        scene,
+        path.v[k - 1].light as usize,
+        path.lambda[k - 2],
+        b.light_wavelengths,
+    ) as f64;
+}
+
+/// Index of the strategy image of (s, t): ordered by k = s + t, then s.
+pub fn strategy_layer(s: usize, t: usize) -> usize {
+    let k = s + t;
+    (k - 1) * k / 2 - 1 + (s - 1)
+}
+
+impl Bdpt {
+    /// Connect the camera prefix of length `s` with the light suffix of length `t` (t = 1: a
+    /// fresh light vertex), reset wavelengths, and add the weighted contribution.
+    pub(super) fn connect(
+        &self,
+        scene: &Scene,
+        s: usize,
+        t: usize,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        sink: &mut SampleSink,
+    ) {
+        let k = s + t;
+        let path = &mut scratch.path;
+        path.reset(k);
+        path.v.extend_from_slice(&scratch.cam[..s]);
+        let fresh = t == 1 && s >= 2;
+        if fresh {
+            // NEE: a fresh light vertex per camera vertex (Jung 6.3.4)
+            let mut lv = sample_light_vertex(scene, sampler);
+            if self.mode == ResetMode::Backward {
+                // backward: λ from the chosen light first, then walk the camera path
+                let (l, _) = sample_light_lambda(
+                    scene,
+                    lv.light as usize,
+                    sampler.next(),
+                    self.light_wavelengths,
+                );
+                lv.lambda_in = l;
+                lv.lambda_out = l;
+            }
+            path.v.push(lv);
+        } else {
+            path.v.extend(scratch.light[..t].iter().rev());
+        }
+        if path.v[k - 1].light == NONE {
+            return;
+        }
+        // Wavelengths (Jung 6.3).
+        match (self.mode, s, t) {
+            (_, 1, _) => reset::light_only(path),
+            (ResetMode::Forward, _, 0) | (ResetMode::Forward, _, 1) => reset::camera_only(path),
+            (ResetMode::Forward, _, _) => reset::forward_reset(scene, path, s, sampler),
+            (ResetMode::Backward, _, 0) => {
+                // camera hit the emitter: λ(k−2) from its emission, then walk (Jung 6.3.3)
+                let li = path.v[k - 1].light as usize;
+                let (l, _) = sample_light_lambda(scene, li, sampler.next(), self.light_wavelengths);
+                path.lambda[k - 2] = l;
+                reset::backward_reset(scene, path, k - 1, sampler);
+            }
+            (ResetMode::Backward, _, _) => {
+                reset::backward_reset_light_path(scene, path, s, sampler)
+            }
+        }
+        let xyz_w = scene.observer.xyz_weight(path.lambda[0]);
+        if xyz_w == glam::Vec3::ZERO {
+            return;
+        }
+        let f = measurement(scene, path);
+        if f <= 0.0 {
+            return;
+        }
+        // splat position for light tracing
+        let mut splat = None;
+        if s == 1 {
+            let d = path.v[1].p - path.v[0].p;
+            match scene.camera.project(d.normalize()) {
+                Some((px, py, _)) => splat = Some((px, py)),
+                None => return,
+            }
+        }
+        // visibility of the connecting segment
+        if t >= 1 {
+            sink.stats.rays += 1;
+            let (a, b) = (&path.v[s - 1], &path.v[s]);
+            let (ray, tmax) = if s == 1 {
+                let d = a.p - b.p;
+                let o = offset_origin(b.p, b.n, d);
+                let dd = a.p - o;
+                let len = dd.length();
+                (Ray::new(o, dd / len), len * (1.0 - 1e-4))
+            } else {
+                spawn_ray_to(a.p, a.n, b.p, b.n)
+            };
+            if scene.occluded(&ray, tmax) {
+                return;
+            }
+        }
+        fill_pdfs(self, scene, path, s, t);
+        let p = path.strategy_pdf(s, self.mode);
+        if p.is_nan() || p <= 0.0 || !p.is_finite() {
+            return;
+        }
+        let w = if self.only.is_some() {
+            1.0
+        } else {
+            path.mis_weight(s, p, self.mode, self.mis)
+        };
+        // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
+        let c = (w * f / p) as f32;
+        if c.is_nan() || c <= 0.0 || !c.is_finite() {
+            if !c.is_finite() {
+                sink.stats.nan_inf_rejected += 1;
+            }
+            return;
+        }
+        let xyz = xyz_w * c;
+        let ok = match splat {
+            Some((px, py)) => {
+                let ok = sink.splat(px, py, xyz);
+                if ok && self.strategy_images {
+                    let pix = (py as u32).min(sink.height - 1) * sink.width
+                        + (px as u32).min(sink.width - 1);
+                    sink.aux(strategy_layer(s, t), pix, xyz);
+                }
+                ok
+            }
+            None => {
+                let ok = sink.add(xyz);
+                if ok && self.strategy_images {
+                    sink.aux(strategy_layer(s, t), sink.pixel, xyz);
+                }
+                ok
+            }
+        };
+        if ok {
+            sink.stats.contribution(k - 1);
+        }
+    }
+}
+
+/// Build the full path of strategy (s, t) from given sub-paths (t = 1 uses the light
+/// sub-path's first vertex instead of a fresh one), apply the integrator's reset and
+/// fill all pdfs (test hook: MIS weights of all strategies for one path). Returns `None` when the
+/// path carries no light.
+pub fn connect_for_test(
+    b: &Bdpt,
+    scene: &Scene,
+    cam: &[Vertex],
+    light: &[Vertex],
+    s: usize,
+    t: usize,
+    sampler: &mut Sampler,
+) -> Option<FullPath> {
+    assert!(s >= 1 && (t >= 1 || s >= 2));
+    let k = s + t;
+    let mut path = FullPath::with_capacity(k);
+    path.reset(k);
+    path.v.extend_from_slice(&cam[..s]);
+    path.v.extend(light[..t].iter().rev());
+    if path.v[k - 1].light == NONE {
+        return None;
+    }
+    match (b.mode, s, t) {
+        (_, 1, _) => reset::light_only(&mut path),
+        (ResetMode::Forward, _, 0) => reset::camera_only(&mut path),
+        (ResetMode::Forward, _, _) => reset::forward_reset(scene, &mut path, s, sampler),
+        (ResetMode::Backward, _, 0) => {
+            let li = path.v[k - 1].light as usize;
+            let (l, _) = sample_light_lambda(scene, li, sampler.next(), b.light_wavelengths);
+            path.lambda[k - 2] = l;
+            reset::backward_reset(scene, &mut path, k - 1, sampler);
+        }
+        (ResetMode::Backward, _, _) => {
+            reset::backward_reset_light_path(scene, &mut path, s, sampler)
+        }
+    }
+    if measurement(scene, &path) <= 0.0 {
+        return None;
+    }
+    fill_pdfs(b, scene, &mut path, s, t);
+    Some(path)
+}

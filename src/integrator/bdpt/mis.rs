@@ -1,0 +1,247 @@
+//! The full pdf p_A · p_Λ of a path for every strategy ŝ that could have produced it
+//! (Jung eqs. 6.3, 6.9–6.14 with the corrections of DESIGN.md §4), and the MIS weights.
+//!
+//! Strategy ŝ means ŝ camera vertices x0 … x(ŝ−1) and t̂ = k − ŝ light vertices; ŝ = 1 is light
+//! tracing (the light path's wavelengths reach the camera unchanged, Jung 6.3.2), ŝ = k is a
+//! camera path that hits the emitter. ŝ = 0 (light paths hitting the pinhole) cannot happen.
+
+use super::subpath::Vertex;
+use crate::integrator::MisHeuristic;
+
+/// Which wavelength reset the integrator applies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetMode {
+    Forward,
+    Backward,
+}
+
+/// A complete path x0 … x(k−1) with its wavelengths and all pdfs needed for MIS.
+#[derive(Clone, Debug, Default)]
+pub struct FullPath {
+    pub k: usize,
+    pub v: Vec<Vertex>,
+    /// λi on the segment x(i+1) → xi, i = 0 … k−2.
+    pub lambda: Vec<f32>,
+    /// shift[i]: xi changes the wavelength (λi ≠ λ(i−1)); i = 1 … k−2.
+    pub shift: Vec<bool>,
+    /// Area pdf of xi sampled from x(i−1) (camera direction), i = 1 … k−1.
+    pub pa_fwd: Vec<f64>,
+    /// Area pdf of xi sampled from x(i+1) (light direction); pa_rev[k−1] is the light point pdf.
+    pub pa_rev: Vec<f64>,
+    /// Camera-side wavelength pdf at xi of the actual pair (eq. 6.6).
+    pub pc: Vec<f64>,
+    /// P_c(fluorescent interaction at xi | λ(i−1)) (eq. 5.12).
+    pub big_pc: Vec<f64>,
+    /// Light-side wavelength pdf at xi of the actual pair (eq. 6.7).
+    pub pl: Vec<f64>,
+    /// P_l(fluorescent interaction at xi | λi) (eq. 5.10).
+    pub big_pl: Vec<f64>,
+    /// p_c(λ0 | x0) under the camera's wavelength sampling (eq. 6.4).
+    pub pc0: f64,
+    /// p_l(λ(k−2) | x(k−1)) under the light's wavelength sampling (eq. 6.5).
+    pub ple: f64,
+}
+
+impl FullPath {
+    pub fn with_capacity(n: usize) -> Self {
+        FullPath {
+            k: 0,
+            v: Vec::with_capacity(n),
+            lambda: vec![0.0; n],
+            shift: vec![false; n],
+            pa_fwd: vec![0.0; n],
+            pa_rev: vec![0.0; n],
+            pc: vec![1.0; n],
+            big_pc: vec![0.0; n],
+            pl: vec![1.0; n],
+            big_pl: vec![0.0; n],
+            pc0: 0.0,
+            ple: 0.0,
+        }
+    }
+
+    /// Make room for a path of `k` vertices (no allocation once the capacity is reached).
+    pub fn reset(&mut self, k: usize) {
+        self.k = k;
+        self.v.clear();
+        for a in [&mut self.lambda] {
+            if a.len() < k {
+                a.resize(k, 0.0);
+            }
+        }
+        if self.shift.len() < k {
+            self.shift.resize(k, false);
+        }
+        for a in [
+            &mut self.pa_fwd,
+            &mut self.pa_rev,
+            &mut self.pc,
+            &mut self.big_pc,
+            &mut self.pl,
+            &mut self.big_pl,
+        ] {
+            if a.len() < k {
+                a.resize(k, 0.0);
+            }
+        }
+    }
+
+    #[inline]
+    fn prod(a: &[f64], lo: usize, hi: usize) -> f64 {
+        // ∏_{i=lo}^{hi} a[i] (empty when hi < lo)
+        if hi < lo {
+            1.0
+        } else {
+            a[lo..=hi].iter().product()
+        }
+    }
+
+    /// Directional pdf of strategy ŝ in area measure, eq. 6.3.
+    pub fn area_pdf(&self, s_hat: usize) -> f64 {
+        let k = self.k;
+        // camera generates x1 … x(ŝ−1); the light generates x(k−1) … xŝ
+        Self::prod(&self.pa_fwd, 1, s_hat.wrapping_sub(1).min(k))
+            * if s_hat < k {
+                Self::prod(&self.pa_rev, s_hat, k - 1)
+            } else {
+                1.0
+            }
+    }
+
+    /// ∏ light-side pdfs of x(j+1) … x(k−2) times the light's λ pdf.
+    #[inline]
+    fn light_tail(&self, j: usize) -> f64 {
+        Self::prod(&self.pl, j + 1, self.k.saturating_sub(2)) * self.ple
+    }
+
+    /// Wavelength pdf of strategy ŝ.
+    pub fn wavelength_pdf(&self, s_hat: usize, mode: ResetMode) -> f64 {
+        let k = self.k;
+        let last = k.saturating_sub(2); // last interior vertex
+        if s_hat == 1 {
+            // light tracing: every wavelength from the light sub-path (Jung 6.3.2)
+            return self.light_tail(0);
+        }
+        match mode {
+            ResetMode::Forward => {
+                // eqs. 6.9/6.10 (DESIGN §4): walk from xŝ; no-shift vertices give 1 − P_c, the first
+                // shifting vertex j gives P_c and the light sub-path's pdfs apply beyond it.
+                match (s_hat..=last).find(|&i| self.shift[i]) {
+                    Some(j) => {
+                        self.pc0
+                            * Self::prod(&self.pc, 1, j - 1)
+                            * self.big_pc[j]
+                            * self.light_tail(j)
+                    }
+                    None => self.pc0 * Self::prod(&self.pc, 1, last),
+                }
+            }
+            ResetMode::Backward => {
+                // eqs. 6.11/6.13 with the corrected index: walk x(ŝ−1) … x1; no-shift vertices
+                // give 1 − P_l, the first shifting vertex j gives P_l, the camera's pdfs below it.
+                let hi = (s_hat - 1).min(last);
+                match (1..=hi).rev().find(|&i| self.shift[i]) {
+                    Some(j) => {
+                        self.pc0
+                            * Self::prod(&self.pc, 1, j - 1)
+                            * self.big_pl[j]
+                            * self.light_tail(j)
+                    }
+                    None => self.light_tail(0),
+                }
+            }
+        }
+    }
+
+    /// Full pdf p_A · p_Λ of strategy ŝ (eq. 6.14).
+    #[inline]
+    pub fn strategy_pdf(&self, s_hat: usize, mode: ResetMode) -> f64 {
+        self.area_pdf(s_hat) * self.wavelength_pdf(s_hat, mode)
+    }
+
+    /// MIS weights of all strategies ŝ = 1 … k (index ŝ − 1), eq. 6.15 generalised to the power
+    /// heuristic; they sum to 1 whenever any strategy has a non-zero pdf.
+    pub fn strategy_weights(&self, mode: ResetMode, h: MisHeuristic, out: &mut Vec<f64>) {
+        out.clear();
+        let e = h.exponent() as f64;
+        let mut sum = 0.0;
+        for s_hat in 1..=self.k {
+            let p = self.strategy_pdf(s_hat, mode).powf(e);
+            sum += p;
+            out.push(p);
+        }
+        if sum > 0.0 {
+            for w in out.iter_mut() {
+                *w /= sum;
+            }
+        }
+    }
+
+    /// MIS weight of strategy s given its own pdf `p_s`.
+    pub fn mis_weight(&self, s: usize, p_s: f64, mode: ResetMode, h: MisHeuristic) -> f64 {
+        let e = h.exponent() as f64;
+        let mut sum = 0.0;
+        for s_hat in 1..=self.k {
+            if s_hat == s {
+                sum += 1.0;
+                continue;
+            }
+            let r = self.strategy_pdf(s_hat, mode) / p_s;
+            sum += if e == 1.0 { r } else { r * r };
+        }
+        1.0 / sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// k = 4: x0 camera, x1 and x2 fluorescent, x3 light. Only x1 shifts.
+    fn path() -> FullPath {
+        let mut p = FullPath::with_capacity(4);
+        p.reset(4);
+        p.shift[1] = true;
+        p.shift[2] = false;
+        p.pc = vec![1.0, 0.3, 0.6, 1.0];
+        p.big_pc = vec![0.0, 0.2, 0.4, 0.0];
+        p.pl = vec![1.0, 0.05, 0.7, 1.0];
+        p.big_pl = vec![0.0, 0.5, 0.3, 0.0];
+        p.pc0 = 0.01;
+        p.ple = 0.02;
+        p
+    }
+
+    #[test]
+    fn backward_walk_of_two_vertices_by_hand() {
+        // ŝ = 3 (x0, x1, x2 camera; x3 light): the walk starts at x2 = x(s−1) (no shift:
+        // 1 − P_l(x2) = 0.7) and stops at x1 (P_l(x1) = 0.5); below it the camera's p_c(λ0).
+        // The printed upper index s − 2 of eq. 6.11 would drop the factor of x2 (DESIGN §4).
+        let p = path();
+        let want = 0.01 * 0.5 * 0.7 * 0.02;
+        assert!((p.wavelength_pdf(3, ResetMode::Backward) - want).abs() < 1e-15);
+        // NEE and t = 0 walk from x2 as well.
+        assert!((p.wavelength_pdf(4, ResetMode::Backward) - want).abs() < 1e-15);
+        // ŝ = 2: walk from x1, which shifts: P_l(x1), light pdf of x2.
+        assert!((p.wavelength_pdf(2, ResetMode::Backward) - want).abs() < 1e-15);
+        // ŝ = 1: all light-side pdfs.
+        assert!((p.wavelength_pdf(1, ResetMode::Backward) - 0.05 * 0.7 * 0.02).abs() < 1e-15);
+    }
+
+    #[test]
+    fn forward_walk_by_hand() {
+        let p = path();
+        // ŝ = 2: walk from x2 (no shift, 1 − P_c = 0.6) to the light: camera-only pdfs.
+        let cam = 0.01 * 0.3 * 0.6;
+        assert!((p.wavelength_pdf(2, ResetMode::Forward) - cam).abs() < 1e-15);
+        assert!((p.wavelength_pdf(3, ResetMode::Forward) - cam).abs() < 1e-15);
+        assert!((p.wavelength_pdf(4, ResetMode::Forward) - cam).abs() < 1e-15);
+        // ŝ = 1 is light tracing.
+        assert!((p.wavelength_pdf(1, ResetMode::Forward) - 0.05 * 0.7 * 0.02).abs() < 1e-15);
+        // With x2 shifting too, ŝ = 2 stops at x2: p_c(λ0) p_c(x1) P_c(x2) · p_l(λ2).
+        let mut q = path();
+        q.shift[2] = true;
+        let want = 0.01 * 0.3 * 0.4 * 0.02;
+        assert!((q.wavelength_pdf(2, ResetMode::Forward) - want).abs() < 1e-15);
+    }
+}

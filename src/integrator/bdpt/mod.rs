@@ -1,0 +1,208 @@
+//! `bdpt-forward` and `bdpt-backward`: bidirectional path tracing with one wavelength per path
+//! segment, camera and light sub-paths that sample wavelengths independently, the forward or
+//! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6).
+//!
+//! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths and
+//!   area pdfs in both directions.
+//! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
+//! - `mis`: the full pdf p_A · p_Λ of every strategy for one path, and the MIS weights.
+//! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19).
+
+pub mod evaluate;
+pub mod mis;
+pub mod reset;
+pub mod subpath;
+
+pub use evaluate::{connect_for_test, strategy_layer};
+pub use mis::{FullPath, ResetMode};
+pub use subpath::{Vertex, VertexKind, camera_subpath, light_subpath};
+
+use crate::integrator::{
+    Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, SampleSink, Sampler,
+};
+use crate::material::WavelengthSampling;
+use crate::scene::{NONE, Scene};
+use crate::spectrum::cie::CameraWavelengths;
+
+pub struct Bdpt {
+    pub(crate) mode: ResetMode,
+    pub(crate) max_depth: u32,
+    pub(crate) camera_wavelengths: CameraWavelengths,
+    pub(crate) wavelength_sampling: WavelengthSampling,
+    pub(crate) light_wavelengths: LightWavelengths,
+    pub(crate) mis: MisHeuristic,
+    pub(crate) strategy_images: bool,
+    /// Render only this strategy (s, t), unweighted (test hook for the per-strategy check).
+    pub(crate) only: Option<(usize, usize)>,
+}
+
+/// Per-thread vertex buffers.
+pub struct Scratch {
+    pub(crate) cam: Vec<Vertex>,
+    pub(crate) light: Vec<Vertex>,
+    pub(crate) path: FullPath,
+}
+
+impl Bdpt {
+    pub fn new(scene: &Scene, o: &IntegratorOptions, mode: ResetMode) -> Result<Self, String> {
+        let name = match mode {
+            ResetMode::Forward => "bdpt-forward",
+            ResetMode::Backward => "bdpt-backward",
+        };
+        if let Some(f) = scene.wavelength_dependent_feature() {
+            return Err(format!(
+                "{name} refuses this scene: it has {f}; the wavelength reset needs directional \
+                 sampling that does not depend on wavelength (Jung 8.1)"
+            ));
+        }
+        if scene.lights.is_empty() {
+            return Err(format!("{name}: the scene has no lights"));
+        }
+        Ok(Bdpt {
+            mode,
+            max_depth: o.max_depth,
+            camera_wavelengths: o.camera_wavelengths,
+            wavelength_sampling: o.wavelength_sampling,
+            light_wavelengths: o.light_wavelengths,
+            mis: o.mis,
+            strategy_images: o.strategy_images,
+            only: None,
+        })
+    }
+
+    /// Render only strategy (s, t), without MIS weight (each strategy alone must converge to the
+    /// light carried by paths of s + t vertices).
+    pub fn single_strategy(mut self, s: usize, t: usize) -> Self {
+        self.only = Some((s, t));
+        self
+    }
+
+    pub fn mode(&self) -> ResetMode {
+        self.mode
+    }
+
+    #[inline]
+    fn wanted(&self, s: usize, t: usize) -> bool {
+        self.only.is_none_or(|o| o == (s, t))
+    }
+
+    /// Trace both sub-paths of one sample into `scratch` (test hook).
+    pub fn trace_subpaths(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        stats: &mut crate::integrator::Stats,
+    ) {
+        let (lambda0, _) = scene
+            .observer
+            .sample_wavelength(self.camera_wavelengths, sampler.next());
+        let md = self.max_depth as usize;
+        camera_subpath(
+            scene,
+            x,
+            y,
+            lambda0,
+            md + 1,
+            self.wavelength_sampling,
+            self.mode == ResetMode::Forward,
+            sampler,
+            stats,
+            &mut scratch.cam,
+        );
+        light_subpath(
+            scene,
+            md,
+            self.light_wavelengths,
+            self.wavelength_sampling,
+            self.mode == ResetMode::Backward,
+            sampler,
+            stats,
+            &mut scratch.light,
+        );
+    }
+}
+
+impl Scratch {
+    pub fn camera(&self) -> &[Vertex] {
+        &self.cam
+    }
+    pub fn light(&self) -> &[Vertex] {
+        &self.light
+    }
+}
+
+impl Integrator for Bdpt {
+    type Scratch = Scratch;
+
+    fn scratch(&self, _: &Scene) -> Scratch {
+        let n = self.max_depth as usize + 2;
+        Scratch {
+            cam: Vec::with_capacity(n),
+            light: Vec::with_capacity(n),
+            path: FullPath::with_capacity(2 * n),
+        }
+    }
+
+    fn aux_layers(&self) -> Vec<String> {
+        if !self.strategy_images {
+            return Vec::new();
+        }
+        let mut names = Vec::new();
+        for k in 2..=self.max_depth as usize + 1 {
+            for s in 1..=k {
+                debug_assert_eq!(strategy_layer(s, k - s), names.len());
+                names.push(format!("s{}_t{}", s, k - s));
+            }
+        }
+        names
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        sink: &mut SampleSink,
+    ) {
+        self.trace_subpaths(scene, x, y, sampler, scratch, sink.stats);
+        let md = self.max_depth as usize;
+        let (nc, nl) = (scratch.cam.len(), scratch.light.len());
+        // t = 0: the camera path hits an emitter
+        for s in 2..=nc {
+            if scratch.cam[s - 1].light != NONE && self.wanted(s, 0) {
+                self.connect(scene, s, 0, sampler, scratch, sink);
+            }
+        }
+        // t = 1: next-event estimation with a fresh light vertex (kept out of the sub-path)
+        for s in 2..=nc.min(md) {
+            if scratch.cam[s - 1].material != NONE && self.wanted(s, 1) {
+                self.connect(scene, s, 1, sampler, scratch, sink);
+            }
+        }
+        // s = 1: light tracing, splatted onto the film
+        for t in 1..=nl.min(md) {
+            if self.wanted(1, t) {
+                self.connect(scene, 1, t, sampler, scratch, sink);
+            }
+        }
+        // s, t ≥ 2
+        for s in 2..=nc {
+            if scratch.cam[s - 1].material == NONE {
+                break;
+            }
+            for t in 2..=nl {
+                if s + t - 1 > md {
+                    break;
+                }
+                if self.wanted(s, t) {
+                    self.connect(scene, s, t, sampler, scratch, sink);
+                }
+            }
+        }
+    }
+}
