@@ -1,5 +1,6 @@
 //! stokes: a research testbed for fluorescence in spectral light transport.
 pub mod cli;
+pub mod experiment;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
