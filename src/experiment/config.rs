@@ -315,7 +315,11 @@ impl Config {
         }
         if let Some(s) = &self.scanline {
             if s.row.is_some() == s.column.is_some() {
-                return Err(err(file, "scanline", "give exactly one of `row` or `column`"));
+                return Err(err(
+                    file,
+                    "scanline",
+                    "give exactly one of `row` or `column`",
+                ));
             }
         }
         if let Some(g) = &self.grid {
@@ -345,7 +349,11 @@ impl Config {
         self.repeats = 1;
         if let Some(l) = &mut self.budget.spp {
             let kept: Vec<u32> = l.iter().copied().filter(|&s| s <= 8).collect();
-            *l = if kept.is_empty() { vec![l[0].min(8)] } else { kept };
+            *l = if kept.is_empty() {
+                vec![l[0].min(8)]
+            } else {
+                kept
+            };
         }
         if let Some(l) = &mut self.budget.seconds {
             let n = l.len().min(3);
@@ -369,9 +377,6 @@ pub fn resolve(config_file: &Path, p: &Path) -> PathBuf {
     if p.is_absolute() {
         p.to_path_buf()
     } else {
-        config_file
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(p)
+        config_file.parent().unwrap_or(Path::new(".")).join(p)
     }
 }

@@ -4,7 +4,7 @@
 //! and the parameter-grid composite.
 
 use super::config::BudgetMode;
-use super::runner::{RunInfo, Row, image_file, read_metrics};
+use super::runner::{Row, RunInfo, image_file, read_metrics};
 use crate::film::output::read_exr;
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
@@ -87,7 +87,13 @@ pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
             BudgetMode::Spp => format!("{} spp", mb.budgets[idx]),
         };
         if !imgs.is_empty() && info.grid_cells.is_empty() {
-            out.extend(image_grid(&info, reference.as_deref(), &imgs, &label, &fig)?);
+            out.extend(image_grid(
+                &info,
+                reference.as_deref(),
+                &imgs,
+                &label,
+                &fig,
+            )?);
             if let Some(c) = info.crop {
                 out.extend(crops(&info, reference.as_deref(), &imgs, c, &label, &fig)?);
             }
@@ -220,8 +226,12 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .map_err(de)?
             .label(l.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
-            c.draw_series(l.pts.iter().map(|p| Circle::new((p.0, p.1), 3, col.filled())))
-                .map_err(de)?;
+            c.draw_series(
+                l.pts
+                    .iter()
+                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
+            )
+            .map_err(de)?;
         }
         c.configure_series_labels()
             .background_style(WHITE.mix(0.8))
@@ -251,8 +261,12 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .map_err(de)?
             .label(l.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
-            c.draw_series(l.pts.iter().map(|p| Circle::new((p.0, p.1), 3, col.filled())))
-                .map_err(de)?;
+            c.draw_series(
+                l.pts
+                    .iter()
+                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
+            )
+            .map_err(de)?;
         }
         c.configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)
@@ -320,7 +334,14 @@ fn error_colour(a: Vec3, r: Vec3) -> [u8; 3] {
 
 const GAP: u32 = 4;
 
-fn blit(dst: &mut image::RgbImage, x0: u32, y0: u32, w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) {
+fn blit(
+    dst: &mut image::RgbImage,
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    f: impl Fn(u32, u32) -> [u8; 3],
+) {
     for y in 0..h {
         for x in 0..w {
             dst.put_pixel(x0 + x, y0 + y, image::Rgb(f(x, y)));
@@ -329,15 +350,26 @@ fn blit(dst: &mut image::RgbImage, x0: u32, y0: u32, w: u32, h: u32, f: impl Fn(
 }
 
 fn save_png(img: &image::RgbImage, p: &Path) -> R<()> {
-    img.save(p).map_err(|e| format!("cannot write '{}': {e}", p.display()))
+    img.save(p)
+        .map_err(|e| format!("cannot write '{}': {e}", p.display()))
 }
 
 fn svg_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// A labelled SVG referencing `png` with a header band of `band` pixels.
-fn label_svg(path: &Path, png: &str, pw: u32, ph: u32, band: u32, labels: &[(u32, u32, String)], title: &str) -> R<()> {
+fn label_svg(
+    path: &Path,
+    png: &str,
+    pw: u32,
+    ph: u32,
+    band: u32,
+    labels: &[(u32, u32, String)],
+    title: &str,
+) -> R<()> {
     let mut s = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\" width=\"{pw}\" height=\"{}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"4\" y=\"14\" font-family=\"sans-serif\" font-size=\"12\">{}</text>\n<image x=\"0\" y=\"{band}\" width=\"{pw}\" height=\"{ph}\" xlink:href=\"{png}\" href=\"{png}\"/>\n",
         ph + band,
@@ -353,7 +385,13 @@ fn label_svg(path: &Path, png: &str, pw: u32, ph: u32, band: u32, labels: &[(u32
     std::fs::write(path, s).map_err(|e| format!("cannot write '{}': {e}", path.display()))
 }
 
-fn image_grid(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec3>)], label: &str, fig: &Path) -> R<Vec<PathBuf>> {
+fn image_grid(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    label: &str,
+    fig: &Path,
+) -> R<Vec<PathBuf>> {
     let (w, h) = (info.width, info.height);
     let k = exposure(reference.unwrap_or(&imgs[0].1));
     let cols = imgs.len() as u32 + reference.is_some() as u32;
@@ -364,13 +402,17 @@ fn image_grid(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<V
     let band = 20;
     let mut col = 0;
     if let Some(r) = reference {
-        blit(&mut g, 0, 0, w, h, |x, y| to_srgb8(r[(y * w + x) as usize], k));
+        blit(&mut g, 0, 0, w, h, |x, y| {
+            to_srgb8(r[(y * w + x) as usize], k)
+        });
         labels.push((2, band - 4, "reference".to_string()));
         col = 1;
     }
     for (name, img) in imgs {
         let x0 = col * (w + GAP);
-        blit(&mut g, x0, 0, w, h, |x, y| to_srgb8(img[(y * w + x) as usize], k));
+        blit(&mut g, x0, 0, w, h, |x, y| {
+            to_srgb8(img[(y * w + x) as usize], k)
+        });
         if let Some(r) = reference {
             blit(&mut g, x0, h + GAP, w, h, |x, y| {
                 let i = (y * w + x) as usize;
@@ -389,7 +431,10 @@ fn image_grid(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<V
         gw,
         gh,
         band + 16,
-        &labels.into_iter().map(|(x, y, t)| (x, y + 16, t)).collect::<Vec<_>>(),
+        &labels
+            .into_iter()
+            .map(|(x, y, t)| (x, y + 16, t))
+            .collect::<Vec<_>>(),
         &format!(
             "{} at {label}; bottom row: relative error sqrt(mean (img-ref)^2/(ref^2+0.01)), log colour 1e-3 (black) to 1 (yellow)",
             info.config.name
@@ -398,7 +443,14 @@ fn image_grid(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<V
     Ok(vec![png, svg])
 }
 
-fn crops(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec3>)], c: super::config::Crop, label: &str, fig: &Path) -> R<Vec<PathBuf>> {
+fn crops(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    c: super::config::Crop,
+    label: &str,
+    fig: &Path,
+) -> R<Vec<PathBuf>> {
     let w = info.width;
     let k = exposure(reference.unwrap_or(&imgs[0].1));
     let zoom = (192 / c.w.max(c.h)).max(1);
@@ -444,7 +496,14 @@ fn luminance(c: Vec3) -> f64 {
     (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64
 }
 
-fn scanline(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec3>)], s: super::config::Scanline, label: &str, path: &Path) -> R<()> {
+fn scanline(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    s: super::config::Scanline,
+    label: &str,
+    path: &Path,
+) -> R<()> {
     let (w, h) = (info.width, info.height);
     let (n, at): (u32, Box<dyn Fn(u32) -> usize>) = match (s.row, s.column) {
         (Some(r), _) => (w, Box::new(move |i| (r * w + i) as usize)),
@@ -453,10 +512,16 @@ fn scanline(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec
     };
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     if let Some(r) = reference {
-        series.push(("reference".into(), (0..n).map(|i| (i as f64, luminance(r[at(i)]))).collect()));
+        series.push((
+            "reference".into(),
+            (0..n).map(|i| (i as f64, luminance(r[at(i)]))).collect(),
+        ));
     }
     for (name, img) in imgs {
-        series.push((name.clone(), (0..n).map(|i| (i as f64, luminance(img[at(i)]))).collect()));
+        series.push((
+            name.clone(),
+            (0..n).map(|i| (i as f64, luminance(img[at(i)]))).collect(),
+        ));
     }
     let ymax = series
         .iter()
@@ -478,7 +543,10 @@ fn scanline(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec
         _ => unreachable!(),
     };
     let mut c = ChartBuilder::on(&root)
-        .caption(format!("{}: luminance along {what}, {label}", info.config.name), ("sans-serif", 16))
+        .caption(
+            format!("{}: luminance along {what}, {label}", info.config.name),
+            ("sans-serif", 16),
+        )
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
@@ -513,12 +581,20 @@ fn scanline(info: &RunInfo, reference: Option<&[Vec3]>, imgs: &[(String, Vec<Vec
 }
 
 fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
-    let g = info.config.grid.as_ref().ok_or("grid cells without a grid")?;
+    let g = info
+        .config
+        .grid
+        .as_ref()
+        .ok_or("grid cells without a grid")?;
     let (w, h) = (info.width, info.height);
     let (nr, nc) = (g.rows.values.len() as u32, g.columns.values.len() as u32);
     let mut cells = Vec::new();
     for c in &info.grid_cells {
-        cells.push((c.row as u32, c.column as u32, read_exr(&dir.join(&c.file))?.2));
+        cells.push((
+            c.row as u32,
+            c.column as u32,
+            read_exr(&dir.join(&c.file))?.2,
+        ));
     }
     // One exposure for the whole grid so the cells compare.
     let all: Vec<Vec3> = cells.iter().flat_map(|c| c.2.iter().copied()).collect();
@@ -527,19 +603,32 @@ fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
     let (gw, gh) = (nc * w + (nc - 1) * GAP, nr * h + (nr - 1) * GAP);
     let mut img = image::RgbImage::from_pixel(gw, gh, image::Rgb([255, 255, 255]));
     for (r, c, px) in &cells {
-        blit(&mut img, left + c * (w + GAP), r * (h + GAP), w, h, |x, y| {
-            to_srgb8(px[(y * w + x) as usize], k)
-        });
+        blit(
+            &mut img,
+            left + c * (w + GAP),
+            r * (h + GAP),
+            w,
+            h,
+            |x, y| to_srgb8(px[(y * w + x) as usize], k),
+        );
     }
     let png = fig.join("parameter-grid.png");
     save_png(&img, &png)?;
     let band = 36;
     let mut labels = Vec::new();
     for (j, v) in g.columns.values.iter().enumerate() {
-        labels.push((j as u32 * (w + GAP) + 2, band - 4, format!("{} = {v}", g.columns.field)));
+        labels.push((
+            j as u32 * (w + GAP) + 2,
+            band - 4,
+            format!("{} = {v}", g.columns.field),
+        ));
     }
     for (i, v) in g.rows.values.iter().enumerate() {
-        labels.push((2, band + i as u32 * (h + GAP) + 12, format!("{} = {v}", g.rows.field)));
+        labels.push((
+            2,
+            band + i as u32 * (h + GAP) + 12,
+            format!("{} = {v}", g.rows.field),
+        ));
     }
     let svg = fig.join("parameter-grid.svg");
     label_svg(

@@ -20,7 +20,11 @@ pub struct ErrorMetrics {
 /// Metrics over the pixels where `mask` is true (all pixels when `mask` is `None`), summing
 /// over the three channels. Non-finite image values count as an infinite error.
 pub fn compare(img: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> ErrorMetrics {
-    assert_eq!(img.len(), reference.len(), "image and reference sizes differ");
+    assert_eq!(
+        img.len(),
+        reference.len(),
+        "image and reference sizes differ"
+    );
     let (mut sig, mut noise, mut rel, mut n) = (0f64, 0f64, 0f64, 0usize);
     for (i, (a, r)) in img.iter().zip(reference).enumerate() {
         if mask.is_some_and(|m| !m[i]) {

@@ -339,7 +339,9 @@ pub fn run_experiment(
     if quick {
         cfg.quicken();
     }
-    let root = root.map(Path::to_path_buf).unwrap_or_else(|| "results".into());
+    let root = root
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| "results".into());
     let scene_path = cfg.scene_path(config_path);
     let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
         CliError::input(format!(
@@ -503,10 +505,11 @@ pub fn run_experiment(
                         progress: false,
                     };
                     let b = bar.clone();
-                    let mut cb = move |_: &crate::film::Film, _: &crate::integrator::Stats, _: f64| {
-                        b.inc(1);
-                        true
-                    };
+                    let mut cb =
+                        move |_: &crate::film::Film, _: &crate::integrator::Stats, _: f64| {
+                            b.inc(1);
+                            true
+                        };
                     let out = render(&scene, kind, &r.options, &settings, Some(&mut cb))
                         .map_err(|e| CliError::runtime(format!("reference: {e}")))?;
                     let px = out.film.rgb();
@@ -576,66 +579,67 @@ pub fn run_experiment(
                 let masks = &masks;
                 let rows_ref = &mut rows;
                 let run_dir_ref = &run_dir;
-                let mut cb = |film: &crate::film::Film, stats: &crate::integrator::Stats, secs: f64| {
-                    let t0 = Instant::now();
-                    let eff = (secs - overhead).max(1e-9);
-                    let units = match mb.mode {
-                        BudgetMode::Spp => film.spp as u64,
-                        BudgetMode::Time => ((eff * 100.0) as u64).min(per_job(mb)),
-                    };
-                    if units > done_units {
-                        b.inc(units - done_units);
-                        done_units = units;
-                    }
-                    let mut rgb: Option<Vec<Vec3>> = None;
-                    while next < mb.budgets.len() {
-                        let due = match mb.mode {
-                            BudgetMode::Spp => film.spp as f64 >= mb.budgets[next],
-                            BudgetMode::Time => eff >= mb.budgets[next],
+                let mut cb =
+                    |film: &crate::film::Film, stats: &crate::integrator::Stats, secs: f64| {
+                        let t0 = Instant::now();
+                        let eff = (secs - overhead).max(1e-9);
+                        let units = match mb.mode {
+                            BudgetMode::Spp => film.spp as u64,
+                            BudgetMode::Time => ((eff * 100.0) as u64).min(per_job(mb)),
                         };
-                        if !due {
-                            break;
+                        if units > done_units {
+                            b.inc(units - done_units);
+                            done_units = units;
                         }
-                        let img = rgb.get_or_insert_with(|| film.rgb());
-                        let is_last = next + 1 == mb.budgets.len();
-                        if rep == 0 || is_last {
-                            let f = run_dir_ref.join(image_file(&v.name, mb.mode, next, rep));
-                            if let Err(e) = write_exr(&f, film.width, film.height, img) {
-                                failure = Some(e);
-                                return false;
-                            }
-                        }
-                        if let Some(r) = reference {
-                            let sps = stats.paths as f64 / eff;
-                            let mut push = |region: &str, m: ErrorMetrics| {
-                                rows_ref.push(Row {
-                                    variant: v.name.clone(),
-                                    integrator: v.integrator.name().into(),
-                                    mode: mb.mode.name().into(),
-                                    budget: mb.budgets[next],
-                                    repeat: rep,
-                                    seed,
-                                    spp: film.spp,
-                                    seconds: eff,
-                                    samples_per_second: sps,
-                                    region: region.into(),
-                                    pixels: m.pixels,
-                                    mse: m.mse,
-                                    rel_mse: m.rel_mse,
-                                    snr_db: m.snr_db,
-                                    efficiency: metrics::efficiency(m.rel_mse, eff),
-                                })
+                        let mut rgb: Option<Vec<Vec3>> = None;
+                        while next < mb.budgets.len() {
+                            let due = match mb.mode {
+                                BudgetMode::Spp => film.spp as f64 >= mb.budgets[next],
+                                BudgetMode::Time => eff >= mb.budgets[next],
                             };
-                            push("all", metrics::compare(img, r, None));
-                            for (n, mask) in masks {
-                                push(n, metrics::compare(img, r, Some(mask)));
+                            if !due {
+                                break;
                             }
+                            let img = rgb.get_or_insert_with(|| film.rgb());
+                            let is_last = next + 1 == mb.budgets.len();
+                            if rep == 0 || is_last {
+                                let f = run_dir_ref.join(image_file(&v.name, mb.mode, next, rep));
+                                if let Err(e) = write_exr(&f, film.width, film.height, img) {
+                                    failure = Some(e);
+                                    return false;
+                                }
+                            }
+                            if let Some(r) = reference {
+                                let sps = stats.paths as f64 / eff;
+                                let mut push = |region: &str, m: ErrorMetrics| {
+                                    rows_ref.push(Row {
+                                        variant: v.name.clone(),
+                                        integrator: v.integrator.name().into(),
+                                        mode: mb.mode.name().into(),
+                                        budget: mb.budgets[next],
+                                        repeat: rep,
+                                        seed,
+                                        spp: film.spp,
+                                        seconds: eff,
+                                        samples_per_second: sps,
+                                        region: region.into(),
+                                        pixels: m.pixels,
+                                        mse: m.mse,
+                                        rel_mse: m.rel_mse,
+                                        snr_db: m.snr_db,
+                                        efficiency: metrics::efficiency(m.rel_mse, eff),
+                                    })
+                                };
+                                push("all", metrics::compare(img, r, None));
+                                for (n, mask) in masks {
+                                    push(n, metrics::compare(img, r, Some(mask)));
+                                }
+                            }
+                            next += 1;
                         }
-                        next += 1;
-                    }
-                    overhead += t0.elapsed().as_secs_f64();
-                    next < mb.budgets.len()
-                };
+                        overhead += t0.elapsed().as_secs_f64();
+                        next < mb.budgets.len()
+                    };
                 render(&scene, v.integrator, &v.options, &settings, Some(&mut cb)).map_err(
                     |e| {
                         CliError::runtime(format!(
@@ -782,10 +786,15 @@ pub fn summarize(rows: &[Row]) -> Vec<SummaryEntry> {
             let g: Vec<&Row> = rows
                 .iter()
                 .filter(|r| {
-                    r.variant == variant && r.mode == mode && r.budget == budget && r.region == region
+                    r.variant == variant
+                        && r.mode == mode
+                        && r.budget == budget
+                        && r.region == region
                 })
                 .collect();
-            let s = |f: &dyn Fn(&Row) -> f64| metrics::spread(&g.iter().map(|r| f(r)).collect::<Vec<_>>());
+            let s = |f: &dyn Fn(&Row) -> f64| {
+                metrics::spread(&g.iter().map(|r| f(r)).collect::<Vec<_>>())
+            };
             SummaryEntry {
                 repeats: g.len(),
                 spp: s(&|r| r.spp as f64),
