@@ -308,19 +308,19 @@ impl Config {
         if self.threads == Some(0) {
             return Err(err(file, "threads", "must be at least 1"));
         }
-        if let Some(c) = &self.crop {
-            if c.w == 0 || c.h == 0 {
-                return Err(err(file, "crop", "w and h must be at least 1"));
-            }
+        if let Some(c) = &self.crop
+            && (c.w == 0 || c.h == 0)
+        {
+            return Err(err(file, "crop", "w and h must be at least 1"));
         }
-        if let Some(s) = &self.scanline {
-            if s.row.is_some() == s.column.is_some() {
-                return Err(err(
-                    file,
-                    "scanline",
-                    "give exactly one of `row` or `column`",
-                ));
-            }
+        if let Some(s) = &self.scanline
+            && s.row.is_some() == s.column.is_some()
+        {
+            return Err(err(
+                file,
+                "scanline",
+                "give exactly one of `row` or `column`",
+            ));
         }
         if let Some(g) = &self.grid {
             for (n, a) in [("rows", &g.rows), ("columns", &g.columns)] {
@@ -364,10 +364,8 @@ impl Config {
                 }
             }
         }
-        if let Some(r) = &mut self.reference {
-            if let Some(s) = &mut r.spp {
-                *s = (*s / 16).clamp(16, 64);
-            }
+        if let Some(s) = self.reference.as_mut().and_then(|r| r.spp.as_mut()) {
+            *s = (*s / 16).clamp(16, 64);
         }
     }
 }

@@ -152,13 +152,13 @@ fn lines(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool) -> Vec<Lin
                 .map(|r| if time_plot { r.rel_mse } else { r.snr_db })
                 .filter(|y| y.is_finite())
                 .collect();
-            if ys.is_empty() || !(x > 0.0) {
+            if ys.is_empty() || x.is_nan() || x <= 0.0 {
                 continue;
             }
             let mean = ys.iter().sum::<f64>() / ys.len() as f64;
             let lo = ys.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            if time_plot && !(lo > 0.0) {
+            if time_plot && (lo.is_nan() || lo <= 0.0) {
                 continue;
             }
             pts.push((x, mean, lo, hi));

@@ -403,10 +403,10 @@ pub fn run_experiment(
             &format!("variant `{}`", v.name),
         )?;
     }
-    if let Some(r) = &cfg.reference {
-        if let Some(k) = r.integrator {
-            check_available(&scene, k, &r.options, "reference")?;
-        }
+    if let Some(r) = &cfg.reference
+        && let Some(k) = r.integrator
+    {
+        check_available(&scene, k, &r.options, "reference")?;
     }
 
     let threads = cfg.threads;
