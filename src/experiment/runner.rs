@@ -846,3 +846,46 @@ fn print_summary(rows: &[Row]) {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_row_round_trips() {
+        let r = Row {
+            variant: "a".into(),
+            integrator: "pt-mono".into(),
+            mode: "time".into(),
+            budget: 2.5,
+            repeat: 1,
+            seed: 7,
+            spp: 12,
+            seconds: 2.5,
+            samples_per_second: 1000.0,
+            region: "floor".into(),
+            pixels: 10,
+            mse: 0.125,
+            rel_mse: 0.5,
+            snr_db: 3.25,
+            efficiency: 0.8,
+        };
+        assert_eq!(Row::from_csv(&r.to_csv()), Some(r));
+        assert_eq!(CSV_HEADER.split(',').count(), 15);
+    }
+
+    #[test]
+    fn quick_size_keeps_aspect() {
+        assert_eq!(quick_size(256, 256), (48, 48));
+        assert_eq!(quick_size(640, 480), (64, 48));
+        assert_eq!(quick_size(32, 16), (32, 16));
+    }
+
+    #[test]
+    fn timestamp_shape() {
+        let t = timestamp();
+        assert_eq!(t.len(), 15);
+        assert_eq!(&t[8..9], "-");
+        assert!(t.starts_with("20"));
+    }
+}
