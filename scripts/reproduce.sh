@@ -3,7 +3,7 @@
 #
 #   scripts/reproduce.sh            full runs (hours on 2 cores)
 #   scripts/reproduce.sh --quick    minutes-long smoke version (64x48, few spp, 1 repeat)
-#   scripts/reproduce.sh --out DIR  results root (default: results)
+#   scripts/reproduce.sh --out DIR  results root (default: results, or results/quick with --quick)
 #
 # Experiments whose integrators are not built yet fail with exit code 2 and a message naming the
 # integrator; the script reports them and carries on. Exit status: 1 if any experiment failed.
@@ -11,7 +11,7 @@ set -u
 cd "$(dirname "$0")/.."
 
 quick=()
-out=results
+out=
 while [ $# -gt 0 ]; do
   case "$1" in
     --quick) quick=(--quick); shift ;;
@@ -19,6 +19,10 @@ while [ $# -gt 0 ]; do
     *) echo "usage: $0 [--quick] [--out DIR]" >&2; exit 2 ;;
   esac
 done
+
+if [ -z "$out" ]; then
+  if [ ${#quick[@]} -gt 0 ]; then out=results/quick; else out=results; fi
+fi
 
 cargo build --release --quiet || exit 1
 bin=target/release/stokes

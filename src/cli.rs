@@ -253,7 +253,7 @@ pub fn inspect(path: &Path) -> Result<(), CliError> {
 pub struct ExperimentArgs {
     /// Experiment config JSON.
     pub config: PathBuf,
-    /// Results root (default `results`); the run goes to `<out>/<name>/runs/<timestamp>/`.
+    /// Results root (default `results`, `results/quick` with --quick); the run goes to `<out>/<name>/runs/<timestamp>/`.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Small resolution, few spp, one repeat: a smoke test.

@@ -339,9 +339,14 @@ pub fn run_experiment(
     if quick {
         cfg.quicken();
     }
-    let root = root
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| "results".into());
+    // Quick runs default to their own root so they never become a full run's `latest`.
+    let root = root.map(Path::to_path_buf).unwrap_or_else(|| {
+        if quick {
+            "results/quick".into()
+        } else {
+            "results".into()
+        }
+    });
     let scene_path = cfg.scene_path(config_path);
     let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
         CliError::input(format!(
