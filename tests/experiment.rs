@@ -132,12 +132,13 @@ fn base_config(extra: &str) -> String {
 }
 
 fn assert_input_error(tag: &str, json: &str, field: &str) {
-    let (code, err, _) = run_config(tag, json);
+    let (code, err, dir) = run_config(tag, json);
     assert_eq!(code, 2, "{tag}: exit code {code}, stderr: {err}");
     assert!(
         err.contains(field),
         "{tag}: message should name `{field}`: {err}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -311,6 +312,7 @@ fn quick_pt_mono_experiment_end_to_end() {
         1
     );
     assert!(t.elapsed().as_secs() < 120, "took {:?}", t.elapsed());
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -364,4 +366,5 @@ fn quick_parameter_grid() {
     assert!(run.join("figures/parameter-grid.png").is_file());
     assert!(run.join("figures/parameter-grid.svg").is_file());
     assert!(run.join("grid/r3_c3.exr").is_file());
+    let _ = std::fs::remove_dir_all(&d);
 }
