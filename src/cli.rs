@@ -248,3 +248,28 @@ pub fn inspect(path: &Path) -> Result<(), CliError> {
     }
     Ok(())
 }
+
+#[derive(Args, Debug, Clone)]
+pub struct ExperimentArgs {
+    /// Experiment config JSON.
+    pub config: PathBuf,
+    /// Results root (default `results`, `results/quick` with --quick); the run goes to `<out>/<name>/runs/<timestamp>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Small resolution, few spp, one repeat: a smoke test.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+pub fn experiment(a: &ExperimentArgs) -> Result<(), CliError> {
+    crate::experiment::run_experiment(&a.config, a.out.as_deref(), a.quick).map(|_| ())
+}
+
+pub fn figures(dir: &Path) -> Result<(), CliError> {
+    let run = crate::experiment::figures::resolve_run_dir(dir).map_err(CliError::input)?;
+    let files = crate::experiment::figures::make_all(&run).map_err(CliError::runtime)?;
+    for f in files {
+        println!("{}", f.display());
+    }
+    Ok(())
+}

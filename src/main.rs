@@ -20,6 +20,13 @@ struct Cli {
 enum Command {
     /// Render a scene to OpenEXR (and optionally PNG and a stats JSON).
     Render(Box<cli::RenderArgs>),
+    /// Run an experiment config: variants against a reference, metrics and figures.
+    Experiment(cli::ExperimentArgs),
+    /// Regenerate every figure of a stored run (a run folder, or an experiment folder with `latest`).
+    Figures {
+        /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
+        results_dir: PathBuf,
+    },
     /// Print what a scene contains (materials, lights, fluorescence) after validation.
     Inspect {
         /// Scene JSON file.
@@ -32,6 +39,8 @@ fn main() -> ExitCode {
     let r = match args.command {
         Command::Render(a) => cli::render(&a),
         Command::Inspect { scene } => cli::inspect(&scene),
+        Command::Experiment(a) => cli::experiment(&a),
+        Command::Figures { results_dir } => cli::figures(&results_dir),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

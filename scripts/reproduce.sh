@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Run every experiment in experiments/ and regenerate every figure from the stored results.
+#
+#   scripts/reproduce.sh            full runs (hours on 2 cores)
+#   scripts/reproduce.sh --quick    minutes-long smoke version (64x48, few spp, 1 repeat)
+#   scripts/reproduce.sh --out DIR  results root (default: results, or results/quick with --quick)
+#
+# Experiments whose integrators are not built yet fail with exit code 2 and a message naming the
+# integrator; the script reports them and carries on. Exit status: 1 if any experiment failed.
+set -u
+cd "$(dirname "$0")/.."
+
+quick=()
+out=
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --quick) quick=(--quick); shift ;;
+    --out) out="$2"; shift 2 ;;
+    *) echo "usage: $0 [--quick] [--out DIR]" >&2; exit 2 ;;
+  esac
+done
+
+if [ -z "$out" ]; then
+  if [ ${#quick[@]} -gt 0 ]; then out=results/quick; else out=results; fi
+fi
+
+cargo build --release --quiet || exit 1
+bin=target/release/stokes
+
+experiments=(
+  walls-integrators
+  walls-wavelength-sampling
+  walls-pt-mono
+  hero-vs-mono-green
+  hero-vs-mono-uv
+  fluorescence-parameters
+  bin-width
+)
+
+failed=()
+for e in "${experiments[@]}"; do
+  echo "== $e ${quick[*]}"
+  start=$(date +%s)
+  if "$bin" experiment "experiments/$e.json" --out "$out" "${quick[@]}"; then
+    "$bin" figures "$out/$e" > /dev/null || failed+=("$e (figures)")
+    echo "   done in $(( $(date +%s) - start )) s: $out/$e/$(cat "$out/$e/latest")"
+  else
+    failed+=("$e")
+  fi
+done
+
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "failed: ${failed[*]}" >&2
+  exit 1
+fi
+echo "all experiments done"

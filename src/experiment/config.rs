@@ -1,0 +1,380 @@
+//! Experiment configs: the JSON format (serde, unknown keys rejected) and the checks serde
+//! cannot make. Errors name the file and the JSON path of the field, like scene errors.
+
+use crate::integrator::{IntegratorKind, IntegratorOptions};
+use crate::scene::InputError;
+use crate::scene::error::from_json_str;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Experiment name: results go to `<root>/<name>/runs/<timestamp>/`.
+    pub name: String,
+    /// Free text; by convention names the paper figure the experiment reproduces.
+    #[serde(default)]
+    pub comment: String,
+    /// Scene file, relative to the config file.
+    pub scene: PathBuf,
+    /// Ground truth. Required unless `grid` is given.
+    #[serde(default)]
+    pub reference: Option<Reference>,
+    pub variants: Vec<Variant>,
+    pub budget: Budget,
+    /// Independent runs per variant; repeat r uses seed `seed + r`.
+    #[serde(default = "one")]
+    pub repeats: u32,
+    /// Base seed of the variants.
+    #[serde(default)]
+    pub seed: u64,
+    /// Worker threads (all cores when absent).
+    #[serde(default)]
+    pub threads: Option<usize>,
+    #[serde(default)]
+    pub regions: Option<Regions>,
+    /// Zoom region in pixels of the scene's full resolution.
+    #[serde(default)]
+    pub crop: Option<Crop>,
+    #[serde(default)]
+    pub scanline: Option<Scanline>,
+    /// Material parameter grid (Jung Fig. 7.13): renders the first variant once per cell.
+    #[serde(default)]
+    pub grid: Option<Grid>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// Either `{"exr": path}` or `{"integrator", "spp", "seed", "options"}`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reference {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exr: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<IntegratorKind>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spp: Option<u32>,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default)]
+    pub options: IntegratorOptions,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Variant {
+    pub name: String,
+    pub integrator: IntegratorKind,
+    #[serde(default)]
+    pub options: IntegratorOptions,
+}
+
+/// Snapshots at an spp ladder, at equal-time budgets, or both (each is run separately).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Budget {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spp: Option<Vec<u32>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seconds: Option<Vec<f64>>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum RegionBy {
+    Material,
+    Shape,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Regions {
+    pub by: RegionBy,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Crop {
+    pub x: u32,
+    pub y: u32,
+    pub w: u32,
+    pub h: u32,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scanline {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub column: Option<u32>,
+}
+
+/// Two material parameters swept over a grid; one composite image.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Material name in the scene.
+    pub material: String,
+    /// Parameter varied along rows (a field of the material, e.g. `concentration`).
+    pub rows: GridAxis,
+    /// Parameter varied along columns (e.g. `quantum_yield`).
+    pub columns: GridAxis,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridAxis {
+    pub field: String,
+    pub values: Vec<f64>,
+}
+
+/// Which budget kind a snapshot belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BudgetMode {
+    Spp,
+    Time,
+}
+
+impl BudgetMode {
+    pub fn name(&self) -> &'static str {
+        match self {
+            BudgetMode::Spp => "spp",
+            BudgetMode::Time => "time",
+        }
+    }
+}
+
+fn err(file: &Path, path: &str, m: impl Into<String>) -> InputError {
+    InputError::new(file, path, m)
+}
+
+impl Config {
+    /// Read, parse and validate a config file.
+    pub fn load(path: &Path) -> Result<Config, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err(path, "", format!("cannot read config: {e}")))?;
+        let c: Config = from_json_str(path, &text)?;
+        c.validate(path)?;
+        Ok(c)
+    }
+
+    /// The scene path resolved against the config's folder.
+    pub fn scene_path(&self, config_file: &Path) -> PathBuf {
+        resolve(config_file, &self.scene)
+    }
+
+    pub fn validate(&self, file: &Path) -> Result<(), InputError> {
+        let name_ok = |s: &str| {
+            !s.is_empty()
+                && s.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_.+".contains(c))
+                && !s.starts_with('.')
+        };
+        if !name_ok(&self.name) {
+            return Err(err(
+                file,
+                "name",
+                format!(
+                    "must be non-empty and use only letters, digits, '-', '_', '.', '+', got {:?}",
+                    self.name
+                ),
+            ));
+        }
+        let sp = self.scene_path(file);
+        if !sp.is_file() {
+            return Err(err(
+                file,
+                "scene",
+                format!("scene file '{}' not found", sp.display()),
+            ));
+        }
+        if self.variants.is_empty() {
+            return Err(err(file, "variants", "must list at least one variant"));
+        }
+        for (i, v) in self.variants.iter().enumerate() {
+            if !name_ok(&v.name) {
+                return Err(err(
+                    file,
+                    &format!("variants[{i}].name"),
+                    format!(
+                        "must be non-empty and use only letters, digits, '-', '_', '.', '+', got {:?}",
+                        v.name
+                    ),
+                ));
+            }
+            if self.variants[..i].iter().any(|o| o.name == v.name) {
+                return Err(err(
+                    file,
+                    &format!("variants[{i}].name"),
+                    format!("duplicate variant name {:?}", v.name),
+                ));
+            }
+            v.options
+                .validate()
+                .map_err(|m| err(file, &format!("variants[{i}].options"), m))?;
+        }
+        match &self.reference {
+            None if self.grid.is_none() => {
+                return Err(err(
+                    file,
+                    "reference",
+                    "missing field `reference` (an {\"exr\": path} or {\"integrator\", \"spp\"})",
+                ));
+            }
+            None => {}
+            Some(r) => match (&r.exr, r.integrator, r.spp) {
+                (Some(p), None, None) => {
+                    let p = resolve(file, p);
+                    if !p.is_file() {
+                        return Err(err(
+                            file,
+                            "reference.exr",
+                            format!("reference image '{}' not found", p.display()),
+                        ));
+                    }
+                }
+                (None, Some(_), Some(spp)) => {
+                    if spp == 0 {
+                        return Err(err(file, "reference.spp", "must be at least 1"));
+                    }
+                    r.options
+                        .validate()
+                        .map_err(|m| err(file, "reference.options", m))?;
+                }
+                (None, None, _) => {
+                    return Err(err(
+                        file,
+                        "reference",
+                        "give either `exr` or `integrator` and `spp`",
+                    ));
+                }
+                (None, Some(_), None) => {
+                    return Err(err(file, "reference.spp", "missing field `spp`"));
+                }
+                (Some(_), _, _) => {
+                    return Err(err(
+                        file,
+                        "reference",
+                        "give either `exr` or `integrator` and `spp`, not both",
+                    ));
+                }
+            },
+        }
+        match (&self.budget.spp, &self.budget.seconds) {
+            (None, None) => {
+                return Err(err(
+                    file,
+                    "budget",
+                    "give `spp` (a ladder such as [1, 2, 4]) and/or `seconds` (equal-time budgets)",
+                ));
+            }
+            (spp, secs) => {
+                if let Some(l) = spp {
+                    if l.is_empty() {
+                        return Err(err(file, "budget.spp", "must not be empty"));
+                    }
+                    if l[0] == 0 || l.windows(2).any(|w| w[1] <= w[0]) {
+                        return Err(err(
+                            file,
+                            "budget.spp",
+                            "must be positive and strictly increasing",
+                        ));
+                    }
+                }
+                if let Some(l) = secs {
+                    if l.is_empty() {
+                        return Err(err(file, "budget.seconds", "must not be empty"));
+                    }
+                    if l.iter().any(|s| !(s.is_finite() && *s > 0.0))
+                        || l.windows(2).any(|w| w[1] <= w[0])
+                    {
+                        return Err(err(
+                            file,
+                            "budget.seconds",
+                            "must be positive, finite and strictly increasing",
+                        ));
+                    }
+                }
+            }
+        }
+        if self.repeats == 0 || self.repeats > 1000 {
+            return Err(err(file, "repeats", "must be 1–1000"));
+        }
+        if self.threads == Some(0) {
+            return Err(err(file, "threads", "must be at least 1"));
+        }
+        if let Some(c) = &self.crop
+            && (c.w == 0 || c.h == 0)
+        {
+            return Err(err(file, "crop", "w and h must be at least 1"));
+        }
+        if let Some(s) = &self.scanline
+            && s.row.is_some() == s.column.is_some()
+        {
+            return Err(err(
+                file,
+                "scanline",
+                "give exactly one of `row` or `column`",
+            ));
+        }
+        if let Some(g) = &self.grid {
+            for (n, a) in [("rows", &g.rows), ("columns", &g.columns)] {
+                if a.values.is_empty() {
+                    return Err(err(file, &format!("grid.{n}.values"), "must not be empty"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The budget modes to run, in order.
+    pub fn modes(&self) -> Vec<BudgetMode> {
+        let mut m = Vec::new();
+        if self.budget.spp.is_some() {
+            m.push(BudgetMode::Spp);
+        }
+        if self.budget.seconds.is_some() {
+            m.push(BudgetMode::Time);
+        }
+        m
+    }
+
+    /// Scale the config down for `--quick` smoke runs.
+    pub fn quicken(&mut self) {
+        self.repeats = 1;
+        if let Some(l) = &mut self.budget.spp {
+            let kept: Vec<u32> = l.iter().copied().filter(|&s| s <= 8).collect();
+            *l = if kept.is_empty() {
+                vec![l[0].min(8)]
+            } else {
+                kept
+            };
+        }
+        if let Some(l) = &mut self.budget.seconds {
+            let n = l.len().min(3);
+            *l = l[..n].iter().map(|s| (s * 0.05).clamp(0.05, 0.5)).collect();
+            for i in 1..l.len() {
+                if l[i] <= l[i - 1] {
+                    l[i] = l[i - 1] * 2.0;
+                }
+            }
+        }
+        if let Some(s) = self.reference.as_mut().and_then(|r| r.spp.as_mut()) {
+            *s = (*s / 16).clamp(16, 64);
+        }
+    }
+}
+
+/// A path in a config, relative to the config file's folder.
+pub fn resolve(config_file: &Path, p: &Path) -> PathBuf {
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        config_file.parent().unwrap_or(Path::new(".")).join(p)
+    }
+}

@@ -1,0 +1,644 @@
+//! Figures from stored results only (`run.json`, `metrics.csv`, the EXRs): convergence plots
+//! (plotters, SVG backend, no system fonts), an image grid with false-colour error maps and zoomed
+//! crops (PNG via the image crate, labelled by a small SVG that references the PNG), scanline plots
+//! and the parameter-grid composite.
+
+use super::config::BudgetMode;
+use super::runner::{Row, RunInfo, image_file, read_metrics};
+use crate::film::output::read_exr;
+use crate::spectrum::cie::srgb_encode;
+use glam::Vec3;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+type R<T> = Result<T, String>;
+
+fn de<E: std::fmt::Debug>(e: E) -> String {
+    format!("plot: {e:?}")
+}
+
+/// Accept a run folder, or an experiment folder with a `latest` file.
+pub fn resolve_run_dir(dir: &Path) -> R<PathBuf> {
+    if dir.join("run.json").is_file() {
+        return Ok(dir.to_path_buf());
+    }
+    let latest = dir.join("latest");
+    if let Ok(t) = std::fs::read_to_string(&latest) {
+        let d = dir.join(t.trim());
+        if d.join("run.json").is_file() {
+            return Ok(d);
+        }
+    }
+    Err(format!(
+        "'{}' holds no run.json (nor a `latest` pointing at a run)",
+        dir.display()
+    ))
+}
+
+/// Regenerate every figure of a run into `<run>/figures/`.
+pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
+    let dir = resolve_run_dir(dir)?;
+    let info: RunInfo = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("run.json")).map_err(|e| format!("run.json: {e}"))?,
+    )
+    .map_err(|e| format!("{}: {e}", dir.join("run.json").display()))?;
+    let rows = read_metrics(&dir.join("metrics.csv"))?;
+    let fig = dir.join("figures");
+    std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;
+    let mut out = Vec::new();
+    if !rows.is_empty() {
+        let mut regions = vec!["all".to_string()];
+        regions.extend(info.region_names.iter().cloned());
+        for region in &regions {
+            let suffix = if region == "all" {
+                String::new()
+            } else {
+                format!("-{region}")
+            };
+            let p = fig.join(format!("relmse-vs-seconds{suffix}.svg"));
+            convergence(&info, &rows, region, true, &p)?;
+            out.push(p);
+            let p = fig.join(format!("snr-vs-spp{suffix}.svg"));
+            convergence(&info, &rows, region, false, &p)?;
+            out.push(p);
+        }
+    }
+    // Images at the final budget (equal time preferred), repeat 0.
+    if let Some(mb) = info
+        .modes
+        .iter()
+        .find(|m| m.mode == BudgetMode::Time)
+        .or(info.modes.first())
+    {
+        let idx = mb.budgets.len() - 1;
+        let reference = match &info.reference_file {
+            Some(f) => Some(read_exr(&dir.join(f))?.2),
+            None => None,
+        };
+        let mut imgs = Vec::new();
+        for v in &info.config.variants {
+            let f = dir.join(image_file(&v.name, mb.mode, idx, 0));
+            if f.is_file() {
+                imgs.push((v.name.clone(), read_exr(&f)?.2));
+            }
+        }
+        let label = match mb.mode {
+            BudgetMode::Time => format!("equal time {} s", mb.budgets[idx]),
+            BudgetMode::Spp => format!("{} spp", mb.budgets[idx]),
+        };
+        if !imgs.is_empty() && info.grid_cells.is_empty() {
+            out.extend(image_grid(
+                &info,
+                reference.as_deref(),
+                &imgs,
+                &label,
+                &fig,
+            )?);
+            if let Some(c) = info.crop {
+                out.extend(crops(&info, reference.as_deref(), &imgs, c, &label, &fig)?);
+            }
+            if let Some(s) = info.scanline {
+                let p = fig.join("scanline.svg");
+                scanline(&info, reference.as_deref(), &imgs, s, &label, &p)?;
+                out.push(p);
+            }
+        }
+    }
+    if !info.grid_cells.is_empty() {
+        out.extend(parameter_grid(&dir, &info, &fig)?);
+    }
+    Ok(out)
+}
+
+struct Line {
+    name: String,
+    /// (x, mean y, min y, max y)
+    pts: Vec<(f64, f64, f64, f64)>,
+}
+
+fn lines(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool) -> Vec<Line> {
+    // relMSE vs seconds prefers equal-time snapshots; SNR vs spp prefers the spp ladder.
+    let want = if time_plot { "time" } else { "spp" };
+    let mode = if rows.iter().any(|r| r.mode == want) {
+        want
+    } else {
+        rows[0].mode.as_str()
+    };
+    let mut out = Vec::new();
+    for v in &info.config.variants {
+        let mut budgets: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.variant == v.name && r.mode == mode && r.region == region)
+            .map(|r| r.budget)
+            .collect();
+        budgets.sort_by(f64::total_cmp);
+        budgets.dedup();
+        let mut pts = Vec::new();
+        for b in budgets {
+            let g: Vec<&Row> = rows
+                .iter()
+                .filter(|r| {
+                    r.variant == v.name && r.mode == mode && r.region == region && r.budget == b
+                })
+                .collect();
+            let n = g.len() as f64;
+            let x = g
+                .iter()
+                .map(|r| if time_plot { r.seconds } else { r.spp as f64 })
+                .sum::<f64>()
+                / n;
+            let ys: Vec<f64> = g
+                .iter()
+                .map(|r| if time_plot { r.rel_mse } else { r.snr_db })
+                .filter(|y| y.is_finite())
+                .collect();
+            if ys.is_empty() || x.is_nan() || x <= 0.0 {
+                continue;
+            }
+            let mean = ys.iter().sum::<f64>() / ys.len() as f64;
+            let lo = ys.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if time_plot && (lo.is_nan() || lo <= 0.0) {
+                continue;
+            }
+            pts.push((x, mean, lo, hi));
+        }
+        if !pts.is_empty() {
+            out.push(Line {
+                name: v.name.clone(),
+                pts,
+            });
+        }
+    }
+    out
+}
+
+fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path: &Path) -> R<()> {
+    let ls = lines(info, rows, region, time_plot);
+    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(de)?;
+    let title = format!(
+        "{}: {} ({})",
+        info.config.name,
+        if time_plot {
+            "relMSE vs time"
+        } else {
+            "SNR vs spp"
+        },
+        region
+    );
+    let all: Vec<&(f64, f64, f64, f64)> = ls.iter().flat_map(|l| &l.pts).collect();
+    if all.is_empty() {
+        root.titled(&format!("{title}: no data"), ("sans-serif", 18))
+            .map_err(de)?;
+        root.present().map_err(de)?;
+        return Ok(());
+    }
+    let x0 = all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min) / 1.2;
+    let x1 = all.iter().map(|p| p.0).fold(0.0, f64::max) * 1.2;
+    let y0 = all.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
+    let y1 = all.iter().map(|p| p.3).fold(f64::NEG_INFINITY, f64::max);
+    let mut chart = ChartBuilder::on(&root);
+    chart
+        .caption(&title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    if time_plot {
+        let mut c = chart
+            .build_cartesian_2d((x0..x1).log_scale(), (y0 / 1.5..y1 * 1.5).log_scale())
+            .map_err(de)?;
+        c.configure_mesh()
+            .x_desc("seconds")
+            .y_desc("relMSE")
+            .draw()
+            .map_err(de)?;
+        for (i, l) in ls.iter().enumerate() {
+            let col = Palette99::pick(i).to_rgba();
+            let mut band: Vec<(f64, f64)> = l.pts.iter().map(|p| (p.0, p.3)).collect();
+            band.extend(l.pts.iter().rev().map(|p| (p.0, p.2)));
+            c.draw_series(std::iter::once(Polygon::new(band, col.mix(0.2))))
+                .map_err(de)?;
+            c.draw_series(LineSeries::new(
+                l.pts.iter().map(|p| (p.0, p.1)),
+                col.stroke_width(2),
+            ))
+            .map_err(de)?
+            .label(l.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+            c.draw_series(
+                l.pts
+                    .iter()
+                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
+            )
+            .map_err(de)?;
+        }
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(de)?;
+    } else {
+        let pad = ((y1 - y0) * 0.1).max(0.5);
+        let mut c = chart
+            .build_cartesian_2d((x0..x1).log_scale(), (y0 - pad)..(y1 + pad))
+            .map_err(de)?;
+        c.configure_mesh()
+            .x_desc("samples per pixel")
+            .y_desc("SNR (dB)")
+            .draw()
+            .map_err(de)?;
+        for (i, l) in ls.iter().enumerate() {
+            let col = Palette99::pick(i).to_rgba();
+            let mut band: Vec<(f64, f64)> = l.pts.iter().map(|p| (p.0, p.3)).collect();
+            band.extend(l.pts.iter().rev().map(|p| (p.0, p.2)));
+            c.draw_series(std::iter::once(Polygon::new(band, col.mix(0.2))))
+                .map_err(de)?;
+            c.draw_series(LineSeries::new(
+                l.pts.iter().map(|p| (p.0, p.1)),
+                col.stroke_width(2),
+            ))
+            .map_err(de)?
+            .label(l.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+            c.draw_series(
+                l.pts
+                    .iter()
+                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
+            )
+            .map_err(de)?;
+        }
+        c.configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(de)?;
+    }
+    root.present().map_err(de)?;
+    Ok(())
+}
+
+/// Exposure scale mapping the 99th percentile of the max channel to 1.
+fn exposure(img: &[Vec3]) -> f32 {
+    let mut v: Vec<f32> = img
+        .iter()
+        .map(|c| c.max_element())
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .collect();
+    if v.is_empty() {
+        return 1.0;
+    }
+    v.sort_by(f32::total_cmp);
+    1.0 / v[(v.len() as f64 * 0.99) as usize].max(1e-12)
+}
+
+fn to_srgb8(c: Vec3, k: f32) -> [u8; 3] {
+    let f = |x: f32| {
+        let x = if x.is_finite() { x * k } else { 0.0 };
+        (srgb_encode(x.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
+    };
+    [f(c.x), f(c.y), f(c.z)]
+}
+
+/// A perceptual-ish false-colour ramp (black → purple → orange → yellow), t in [0, 1].
+fn ramp(t: f32) -> [u8; 3] {
+    const S: [[f32; 3]; 5] = [
+        [0.0, 0.0, 0.02],
+        [0.34, 0.06, 0.43],
+        [0.73, 0.21, 0.33],
+        [0.98, 0.55, 0.04],
+        [0.99, 1.0, 0.64],
+    ];
+    let t = t.clamp(0.0, 1.0) * 4.0;
+    let i = (t as usize).min(3);
+    let f = t - i as f32;
+    let c = |k: usize| ((S[i][k] * (1.0 - f) + S[i + 1][k] * f) * 255.0) as u8;
+    [c(0), c(1), c(2)]
+}
+
+/// Per-pixel relative error sqrt(mean_c (img − ref)² / (ref² + 1e-2)), mapped log10 over
+/// [1e-3, 1].
+fn error_colour(a: Vec3, r: Vec3) -> [u8; 3] {
+    let mut e = 0.0f32;
+    for c in 0..3 {
+        let d = a[c] - r[c];
+        e += d * d / (r[c] * r[c] + 1e-2);
+    }
+    let e = (e / 3.0).sqrt();
+    if !e.is_finite() {
+        return [255, 0, 255];
+    }
+    ramp((e.max(1e-3).log10() + 3.0) / 3.0)
+}
+
+const GAP: u32 = 4;
+
+fn blit(
+    dst: &mut image::RgbImage,
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    f: impl Fn(u32, u32) -> [u8; 3],
+) {
+    for y in 0..h {
+        for x in 0..w {
+            dst.put_pixel(x0 + x, y0 + y, image::Rgb(f(x, y)));
+        }
+    }
+}
+
+fn save_png(img: &image::RgbImage, p: &Path) -> R<()> {
+    img.save(p)
+        .map_err(|e| format!("cannot write '{}': {e}", p.display()))
+}
+
+fn svg_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// A labelled SVG referencing `png` with a header band of `band` pixels.
+fn label_svg(
+    path: &Path,
+    png: &str,
+    pw: u32,
+    ph: u32,
+    band: u32,
+    labels: &[(u32, u32, String)],
+    title: &str,
+) -> R<()> {
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\" width=\"{pw}\" height=\"{}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<text x=\"4\" y=\"14\" font-family=\"sans-serif\" font-size=\"12\">{}</text>\n<image x=\"0\" y=\"{band}\" width=\"{pw}\" height=\"{ph}\" xlink:href=\"{png}\" href=\"{png}\"/>\n",
+        ph + band,
+        svg_escape(title)
+    );
+    for (x, y, t) in labels {
+        s += &format!(
+            "<text x=\"{x}\" y=\"{y}\" font-family=\"sans-serif\" font-size=\"11\">{}</text>\n",
+            svg_escape(t)
+        );
+    }
+    s += "</svg>\n";
+    std::fs::write(path, s).map_err(|e| format!("cannot write '{}': {e}", path.display()))
+}
+
+fn image_grid(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    label: &str,
+    fig: &Path,
+) -> R<Vec<PathBuf>> {
+    let (w, h) = (info.width, info.height);
+    let k = exposure(reference.unwrap_or(&imgs[0].1));
+    let cols = imgs.len() as u32 + reference.is_some() as u32;
+    let rows = if reference.is_some() { 2 } else { 1 };
+    let (gw, gh) = (cols * w + (cols - 1) * GAP, rows * h + (rows - 1) * GAP);
+    let mut g = image::RgbImage::from_pixel(gw, gh, image::Rgb([255, 255, 255]));
+    let mut labels = Vec::new();
+    let band = 20;
+    let mut col = 0;
+    if let Some(r) = reference {
+        blit(&mut g, 0, 0, w, h, |x, y| {
+            to_srgb8(r[(y * w + x) as usize], k)
+        });
+        labels.push((2, band - 4, "reference".to_string()));
+        col = 1;
+    }
+    for (name, img) in imgs {
+        let x0 = col * (w + GAP);
+        blit(&mut g, x0, 0, w, h, |x, y| {
+            to_srgb8(img[(y * w + x) as usize], k)
+        });
+        if let Some(r) = reference {
+            blit(&mut g, x0, h + GAP, w, h, |x, y| {
+                let i = (y * w + x) as usize;
+                error_colour(img[i], r[i])
+            });
+        }
+        labels.push((x0 + 2, band - 4, name.clone()));
+        col += 1;
+    }
+    let png = fig.join("image-grid.png");
+    save_png(&g, &png)?;
+    let svg = fig.join("image-grid.svg");
+    label_svg(
+        &svg,
+        "image-grid.png",
+        gw,
+        gh,
+        band + 16,
+        &labels
+            .into_iter()
+            .map(|(x, y, t)| (x, y + 16, t))
+            .collect::<Vec<_>>(),
+        &format!(
+            "{} at {label}; bottom row: relative error sqrt(mean (img-ref)^2/(ref^2+0.01)), log colour 1e-3 (black) to 1 (yellow)",
+            info.config.name
+        ),
+    )?;
+    Ok(vec![png, svg])
+}
+
+fn crops(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    c: super::config::Crop,
+    label: &str,
+    fig: &Path,
+) -> R<Vec<PathBuf>> {
+    let w = info.width;
+    let k = exposure(reference.unwrap_or(&imgs[0].1));
+    let zoom = (192 / c.w.max(c.h)).max(1);
+    let (cw, ch) = (c.w * zoom, c.h * zoom);
+    let mut all: Vec<(&str, &[Vec3])> = Vec::new();
+    if let Some(r) = reference {
+        all.push(("reference", r));
+    }
+    for (n, i) in imgs {
+        all.push((n, i));
+    }
+    let n = all.len() as u32;
+    let gw = n * cw + (n - 1) * GAP;
+    let mut g = image::RgbImage::from_pixel(gw, ch, image::Rgb([255, 255, 255]));
+    let mut labels = Vec::new();
+    for (j, (name, img)) in all.iter().enumerate() {
+        let x0 = j as u32 * (cw + GAP);
+        blit(&mut g, x0, 0, cw, ch, |x, y| {
+            let (sx, sy) = (c.x + x / zoom, c.y + y / zoom);
+            to_srgb8(img[(sy * w + sx) as usize], k)
+        });
+        labels.push((x0 + 2, 32, name.to_string()));
+    }
+    let png = fig.join("crops.png");
+    save_png(&g, &png)?;
+    let svg = fig.join("crops.svg");
+    label_svg(
+        &svg,
+        "crops.png",
+        gw,
+        ch,
+        36,
+        &labels,
+        &format!(
+            "{}: crop {}x{} at ({}, {}), {label}, zoom {zoom}x",
+            info.config.name, c.w, c.h, c.x, c.y
+        ),
+    )?;
+    Ok(vec![png, svg])
+}
+
+fn luminance(c: Vec3) -> f64 {
+    (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64
+}
+
+fn scanline(
+    info: &RunInfo,
+    reference: Option<&[Vec3]>,
+    imgs: &[(String, Vec<Vec3>)],
+    s: super::config::Scanline,
+    label: &str,
+    path: &Path,
+) -> R<()> {
+    let (w, h) = (info.width, info.height);
+    let (n, at): (u32, Box<dyn Fn(u32) -> usize>) = match (s.row, s.column) {
+        (Some(r), _) => (w, Box::new(move |i| (r * w + i) as usize)),
+        (_, Some(c)) => (h, Box::new(move |i| (i * w + c) as usize)),
+        _ => return Err("scanline needs a row or a column".into()),
+    };
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    if let Some(r) = reference {
+        series.push((
+            "reference".into(),
+            (0..n).map(|i| (i as f64, luminance(r[at(i)]))).collect(),
+        ));
+    }
+    for (name, img) in imgs {
+        series.push((
+            name.clone(),
+            (0..n).map(|i| (i as f64, luminance(img[at(i)]))).collect(),
+        ));
+    }
+    let ymax = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.1))
+        .filter(|y| y.is_finite())
+        .fold(0.0, f64::max)
+        .max(1e-6)
+        * 1.05;
+    let ymin = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.1))
+        .filter(|y| y.is_finite())
+        .fold(0.0, f64::min);
+    let root = SVGBackend::new(path, (720, 400)).into_drawing_area();
+    root.fill(&WHITE).map_err(de)?;
+    let what = match (s.row, s.column) {
+        (Some(r), _) => format!("row {r}"),
+        (_, Some(c)) => format!("column {c}"),
+        _ => unreachable!(),
+    };
+    let mut c = ChartBuilder::on(&root)
+        .caption(
+            format!("{}: luminance along {what}, {label}", info.config.name),
+            ("sans-serif", 16),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0f64..(n as f64 - 1.0).max(1.0), ymin..ymax)
+        .map_err(de)?;
+    c.configure_mesh()
+        .x_desc("pixel")
+        .y_desc("Y (linear)")
+        .draw()
+        .map_err(de)?;
+    for (i, (name, pts)) in series.iter().enumerate() {
+        let col = if i == 0 && reference.is_some() {
+            BLACK.to_rgba()
+        } else {
+            Palette99::pick(i - reference.is_some() as usize).to_rgba()
+        };
+        c.draw_series(LineSeries::new(
+            pts.iter().copied().filter(|p| p.1.is_finite()),
+            col.stroke_width(if i == 0 { 2 } else { 1 }),
+        ))
+        .map_err(de)?
+        .label(name.clone())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+    }
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(de)?;
+    root.present().map_err(de)?;
+    Ok(())
+}
+
+fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
+    let g = info
+        .config
+        .grid
+        .as_ref()
+        .ok_or("grid cells without a grid")?;
+    let (w, h) = (info.width, info.height);
+    let (nr, nc) = (g.rows.values.len() as u32, g.columns.values.len() as u32);
+    let mut cells = Vec::new();
+    for c in &info.grid_cells {
+        cells.push((
+            c.row as u32,
+            c.column as u32,
+            read_exr(&dir.join(&c.file))?.2,
+        ));
+    }
+    // One exposure for the whole grid so the cells compare.
+    let all: Vec<Vec3> = cells.iter().flat_map(|c| c.2.iter().copied()).collect();
+    let k = exposure(&all);
+    let left = 0;
+    let (gw, gh) = (nc * w + (nc - 1) * GAP, nr * h + (nr - 1) * GAP);
+    let mut img = image::RgbImage::from_pixel(gw, gh, image::Rgb([255, 255, 255]));
+    for (r, c, px) in &cells {
+        blit(
+            &mut img,
+            left + c * (w + GAP),
+            r * (h + GAP),
+            w,
+            h,
+            |x, y| to_srgb8(px[(y * w + x) as usize], k),
+        );
+    }
+    let png = fig.join("parameter-grid.png");
+    save_png(&img, &png)?;
+    let band = 36;
+    let mut labels = Vec::new();
+    for (j, v) in g.columns.values.iter().enumerate() {
+        labels.push((
+            j as u32 * (w + GAP) + 2,
+            band - 4,
+            format!("{} = {v}", g.columns.field),
+        ));
+    }
+    for (i, v) in g.rows.values.iter().enumerate() {
+        labels.push((
+            2,
+            band + i as u32 * (h + GAP) + 12,
+            format!("{} = {v}", g.rows.field),
+        ));
+    }
+    let svg = fig.join("parameter-grid.svg");
+    label_svg(
+        &svg,
+        "parameter-grid.png",
+        gw,
+        gh,
+        band,
+        &labels,
+        &format!("{}: material {}", info.config.name, g.material),
+    )?;
+    Ok(vec![png, svg])
+}

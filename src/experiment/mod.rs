@@ -1,0 +1,15 @@
+//! Experiments: configs, runs against a reference, error metrics and paper-style figures.
+//!
+//! `stokes experiment CONFIG.json` renders every variant at every budget snapshot and writes
+//! `results/<name>/runs/<timestamp>/` with `metrics.csv`, `summary.json`, `run.json`, the
+//! reference and snapshot EXRs and `figures/`. `stokes figures RUN_DIR` rebuilds the figures
+//! from those files without rendering.
+
+pub mod config;
+pub mod figures;
+pub mod metrics;
+pub mod runner;
+
+pub use config::Config;
+pub use metrics::{ErrorMetrics, compare};
+pub use runner::{RunInfo, run_experiment};
