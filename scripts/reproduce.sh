@@ -30,7 +30,6 @@ bin=target/release/stokes
 experiments=(
   walls-integrators
   walls-wavelength-sampling
-  walls-pt-mono
   hero-vs-mono-green
   hero-vs-mono-uv
   fluorescence-parameters
