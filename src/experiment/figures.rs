@@ -206,11 +206,20 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
         .y_label_area_size(70);
     if time_plot {
         let mut c = chart
-            .build_cartesian_2d((x0..x1).log_scale(), (y0 / 1.5..y1 * 1.5).log_scale())
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+                (y0 / 1.5..y1 * 1.5)
+                    .log_scale()
+                    .with_key_points(log_ticks(y0 / 1.5, y1 * 1.5)),
+            )
             .map_err(de)?;
         c.configure_mesh()
             .x_desc("seconds")
             .y_desc("relMSE")
+            .x_labels(8)
+            .y_labels(8)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(de)?;
         for (i, l) in ls.iter().enumerate() {
@@ -234,6 +243,7 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .map_err(de)?;
         }
         c.configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
@@ -241,11 +251,17 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
     } else {
         let pad = ((y1 - y0) * 0.1).max(0.5);
         let mut c = chart
-            .build_cartesian_2d((x0..x1).log_scale(), (y0 - pad)..(y1 + pad))
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+                (y0 - pad)..(y1 + pad),
+            )
             .map_err(de)?;
         c.configure_mesh()
             .x_desc("samples per pixel")
             .y_desc("SNR (dB)")
+            .x_labels(8)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| format!("{v:.0}"))
             .draw()
             .map_err(de)?;
         for (i, l) in ls.iter().enumerate() {
@@ -269,7 +285,7 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .map_err(de)?;
         }
         c.configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
+            .position(SeriesLabelPosition::UpperLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
@@ -641,4 +657,43 @@ fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
         &format!("{}: material {}", info.config.name, g.material),
     )?;
     Ok(vec![png, svg])
+}
+
+/// Compact tick label for log axes: 3 significant digits, scientific outside [1e-3, 1e4).
+fn tick(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let a = v.abs();
+    if !(1e-3..1e4).contains(&a) {
+        return format!("{v:.1e}");
+    }
+    let digits = (2 - a.log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// Tick positions for a log axis: 1-2-5 per decade, or every integer multiple when the range
+/// spans less than about a decade.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo) {
+        return vec![];
+    }
+    let (d0, d1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let pick = |ms: &[f64]| -> Vec<f64> {
+        (d0..=d1)
+            .flat_map(|d| ms.iter().map(move |m| m * 10f64.powi(d)))
+            .filter(|v| *v >= lo && *v <= hi)
+            .collect()
+    };
+    let t = pick(&[1.0, 2.0, 5.0]);
+    if t.len() >= 3 {
+        t
+    } else {
+        pick(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
+    }
 }
