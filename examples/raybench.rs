@@ -27,7 +27,32 @@ fn main() {
         .min(set.rays.len());
     let reps: usize = a.get(3).map_or(5, |s| s.parse().unwrap());
     let occ = a.get(4).is_some_and(|s| s == "occ");
-    let accel = Accel::build(&set.tris, &[]);
+    let accel = match std::env::var("PRESET").as_deref() {
+        Ok(p) => {
+            use obvhs::BvhBuildParams as B;
+            let mut params = match p {
+                "fastest" => B::fastest_build(),
+                "very_fast" => B::very_fast_build(),
+                "fast" => B::fast_build(),
+                "medium" => B::medium_build(),
+                "slow" => B::slow_build(),
+                "very_slow" => B::very_slow_build(),
+                _ => panic!("preset"),
+            };
+            if let Ok(l) = std::env::var("LEAF") {
+                params.max_prims_per_leaf = l.parse().unwrap();
+            }
+            if let Ok(l) = std::env::var("REINS") {
+                params.reinsertion_batch_ratio = l.parse().unwrap();
+            }
+            let split = std::env::var("NOSPLIT").is_err();
+            let t0 = std::time::Instant::now();
+            let a = Accel::build_with(&set.tris, &[], params, split);
+            eprintln!("build {p} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+            a
+        }
+        Err(_) => Accel::build(&set.tris, &[]),
+    };
     let mut best = f64::INFINITY;
     let mut times = vec![];
     let mut chk = 0.0;

@@ -22,6 +22,7 @@ use obvhs::{
     ploc::PlocBuilder,
     splits::split_aabbs_preset,
 };
+use std::mem::MaybeUninit;
 
 use super::{Hit, Ray, Sphere, Triangle};
 
@@ -208,6 +209,68 @@ fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8
     }
 }
 
+/// AVX2 version of [`intersect_node`] (all 8 slots in one register; same arithmetic, no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn intersect_node_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+
+    let adj_dir_inv = node.compute_extent() * r.inv_d;
+    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
+    let sel = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| -> (*const __m128i, *const __m128i) {
+        let (n, f) = if neg { (hi, lo) } else { (lo, hi) };
+        (n.as_ptr() as *const __m128i, f.as_ptr() as *const __m128i)
+    };
+    let (nx, fx) = sel(r.neg[0], &node.child_min_x, &node.child_max_x);
+    let (ny, fy) = sel(r.neg[1], &node.child_min_y, &node.child_max_y);
+    let (nz, fz) = sel(r.neg[2], &node.child_min_z, &node.child_max_z);
+    // SAFETY: AVX2 is enabled for this function; the 8-byte loads read one `[u8; 8]` field each.
+    unsafe {
+        let q = |p: *const __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p)));
+        let t = |p: *const __m128i, d: f32, o: f32| {
+            _mm256_add_ps(_mm256_mul_ps(q(p), _mm256_set1_ps(d)), _mm256_set1_ps(o))
+        };
+        let tmin = _mm256_max_ps(
+            _mm256_max_ps(
+                t(nx, adj_dir_inv.x, adj_orig.x),
+                t(ny, adj_dir_inv.y, adj_orig.y),
+            ),
+            _mm256_max_ps(t(nz, adj_dir_inv.z, adj_orig.z), _mm256_setzero_ps()),
+        );
+        let tmax = _mm256_min_ps(
+            _mm256_min_ps(
+                t(fx, adj_dir_inv.x, adj_orig.x),
+                t(fy, adj_dir_inv.y, adj_orig.y),
+            ),
+            _mm256_min_ps(t(fz, adj_dir_inv.z, adj_orig.z), _mm256_set1_ps(t_max)),
+        );
+        _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
+        let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
+        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
+            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
+            _mm_setzero_si128(),
+        )) as u32;
+        hit & !empty & 0xff
+    }
+}
+
+/// Node test, AVX2 when `AVX` (only instantiated inside AVX2-enabled functions).
+#[inline(always)]
+fn node_test<const AVX: bool>(
+    node: &CwBvhNode,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
+        return unsafe { intersect_node_avx2(node, r, t_max, tmin_out) };
+    }
+    intersect_node(node, r, t_max, tmin_out)
+}
+
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
 fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
@@ -279,6 +342,8 @@ pub struct Accel {
     n_spheres: u32,
     /// Upper bound on the traversal stack depth (7 entries per level).
     stack_size: usize,
+    /// Use the AVX2 traversal (detected at build time).
+    avx2: bool,
 }
 
 impl Accel {
@@ -305,6 +370,7 @@ impl Accel {
                 n_tris: 0,
                 n_spheres: 0,
                 stack_size: 0,
+                avx2: false,
             };
         }
 
@@ -393,6 +459,7 @@ impl Accel {
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
             stack_size,
+            avx2: has_avx2(),
         }
     }
 
@@ -406,16 +473,32 @@ impl Accel {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set when the CPU supports AVX2, POPCNT and BMI1.
+            return unsafe { self.intersect_avx2(ray, t_max) };
+        }
+        self.intersect_dispatch::<false>(ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn intersect_avx2(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        self.intersect_dispatch::<true>(ray, t_max)
+    }
+
+    #[inline(always)]
+    fn intersect_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if self.stack_size <= STACK {
-            let mut stack = [Entry::default(); STACK];
+            let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.intersect_impl::<false>(ray, t_max, &mut stack)
+                self.intersect_impl::<false, AVX>(ray, t_max, &mut stack)
             } else {
-                self.intersect_impl::<true>(ray, t_max, &mut stack)
+                self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
             }
         } else {
-            let mut stack = vec![Entry::default(); self.stack_size];
-            self.intersect_impl::<true>(ray, t_max, &mut stack)
+            let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
+            self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
         }
     }
 
@@ -440,11 +523,11 @@ impl Accel {
     /// children are visited nearest first (sorted by entry distance), and popped entries farther
     /// than the current hit are skipped.
     #[inline(always)]
-    fn intersect_impl<const MIXED: bool>(
+    fn intersect_impl<const MIXED: bool, const AVX: bool>(
         &self,
         ray: &Ray,
         t_max: f32,
-        stack: &mut [Entry],
+        stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
         let r = TRay::new(ray);
         let nodes = &self.bvh.nodes[..];
@@ -457,7 +540,7 @@ impl Accel {
         loop {
             // SAFETY: child indices produced by the CWBVH builder are in bounds.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
-            let mut hits = intersect_node(node, &r, t_best, &mut tmins);
+            let mut hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
             // Leaves first (they can shrink t_best before the inner children are ordered).
             let mut inner = [Entry::default(); 8];
             let mut n_inner = 0;
@@ -497,7 +580,7 @@ impl Accel {
             if n_inner > 0 && inner[n_inner - 1].t <= t_best {
                 for e in &inner[..n_inner - 1] {
                     if e.t <= t_best {
-                        stack[sp] = *e;
+                        stack[sp] = MaybeUninit::new(*e);
                         sp += 1;
                     }
                 }
@@ -515,7 +598,8 @@ impl Accel {
                     });
                 }
                 sp -= 1;
-                let e = stack[sp];
+                // SAFETY: entries below `sp` have been written.
+                let e = unsafe { stack[sp].assume_init() };
                 if e.t <= t_best {
                     cur = e.node;
                     break;
@@ -529,22 +613,43 @@ impl Accel {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: see `intersect`.
+            return unsafe { self.occluded_avx2(ray, t_max) };
+        }
+        self.occluded_dispatch::<false>(ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn occluded_avx2(&self, ray: &Ray, t_max: f32) -> bool {
+        self.occluded_dispatch::<true>(ray, t_max)
+    }
+
+    #[inline(always)]
+    fn occluded_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> bool {
         if self.stack_size <= STACK {
-            let mut stack = [0u32; STACK];
+            let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.occluded_impl::<false>(ray, t_max, &mut stack)
+                self.occluded_impl::<false, AVX>(ray, t_max, &mut stack)
             } else {
-                self.occluded_impl::<true>(ray, t_max, &mut stack)
+                self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
             }
         } else {
-            let mut stack = vec![0u32; self.stack_size];
-            self.occluded_impl::<true>(ray, t_max, &mut stack)
+            let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
+            self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
         }
     }
 
     /// Any-hit traversal: no ordering, exit on the first hit.
     #[inline(always)]
-    fn occluded_impl<const MIXED: bool>(&self, ray: &Ray, t_max: f32, stack: &mut [u32]) -> bool {
+    fn occluded_impl<const MIXED: bool, const AVX: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        stack: &mut [MaybeUninit<u32>],
+    ) -> bool {
         let r = TRay::new(ray);
         let nodes = &self.bvh.nodes[..];
         let mut sp = 0usize;
@@ -553,7 +658,7 @@ impl Accel {
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
-            let mut hits = intersect_node(node, &r, t_max, &mut tmins);
+            let mut hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
             let mut next = u32::MAX;
             while hits != 0 {
                 let i = hits.trailing_zeros() as usize;
@@ -561,7 +666,7 @@ impl Accel {
                 let meta = node.child_meta[i];
                 if is_inner(meta) {
                     if next != u32::MAX {
-                        stack[sp] = next;
+                        stack[sp] = MaybeUninit::new(next);
                         sp += 1;
                     }
                     next = inner_child(node, meta);
@@ -580,10 +685,23 @@ impl Accel {
                 return false;
             } else {
                 sp -= 1;
-                cur = stack[sp];
+                // SAFETY: entries below `sp` have been written.
+                cur = unsafe { stack[sp].assume_init() };
             }
         }
     }
+}
+
+/// Whether the AVX2 traversal can be used on this CPU.
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("popcnt")
+            && std::is_x86_feature_detected!("bmi1")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// Depth (in nodes) of a CWBVH.
@@ -693,6 +811,9 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(seed);
         let accel = Accel::build(tris, spheres);
         assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
+        // The portable (SSE2) traversal must agree with the AVX2 one where both exist.
+        let mut portable = Accel::build(tris, spheres);
+        portable.avx2 = false;
         let mut hits = 0;
         for k in 0..n_rays {
             // Mix of rays from outside, rays from inside spheres, and short rays.
@@ -758,6 +879,17 @@ mod tests {
                 accel.occluded(&ray, t_max),
                 bf.is_some(),
                 "ray {k}: occlusion"
+            );
+            let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
+            assert_eq!(
+                key(portable.intersect(&ray, t_max)),
+                key(got),
+                "ray {k}: portable"
+            );
+            assert_eq!(
+                portable.occluded(&ray, t_max),
+                bf.is_some(),
+                "ray {k}: portable occlusion"
             );
         }
         if n_rays > 100 && tris.len() + spheres.len() > 10 {
