@@ -490,6 +490,7 @@ impl Accel {
 
     /// Closest hit with t in (0, t_max). Primitive ids `0..triangles.len()` are triangles
     /// (u, v = barycentrics of v1 and v2), then spheres (u, v unused, 0).
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
@@ -750,6 +751,7 @@ impl Accel {
     }
 
     /// Any hit with t in (0, t_max).
+    #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return false;
