@@ -13,7 +13,7 @@
 //!   we break out of a labelled block instead.
 //! - `Triangle::compute_barycentric` is wrong; we compute barycentrics in our own intersector.
 
-use glam::{UVec2, Vec3A};
+use glam::Vec3A;
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
@@ -21,8 +21,8 @@ use obvhs::{
     cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode},
     ploc::PlocBuilder,
     splits::split_aabbs_preset,
-    traverse,
 };
+use std::mem::MaybeUninit;
 
 use super::{Hit, Ray, Sphere, Triangle};
 
@@ -112,6 +112,7 @@ struct TRay {
     o: Vec3A,
     d: Vec3A,
     inv_d: Vec3A,
+    neg: [bool; 3],
 }
 
 impl TRay {
@@ -130,77 +131,151 @@ impl TRay {
             o: Vec3A::from(ray.o),
             d,
             inv_d: Vec3A::new(safe(d.x), safe(d.y), safe(d.z)),
+            neg: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
         }
     }
 }
 
-/// Ray vs. the (up to) 8 quantised child boxes of a CWBVH node; returns the obvhs hit mask.
-/// Same algorithm as `CwBvhNode::intersect_ray_simd`, but with `tmin = 0` instead of obvhs'
-/// hard-coded `1e-4`.
+/// Ray vs. the (up to) 8 quantised child boxes of a CWBVH node, in child-slot order: returns the
+/// mask of hit non-empty slots and writes each slot's entry distance to `tmin_out`. Same box math
+/// as `CwBvhNode::intersect_ray_simd`, but with `tmin = 0` instead of obvhs' hard-coded `1e-4`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, oct_inv4: u32) -> u32 {
-    use obvhs::cwbvh::node::extract_byte64;
+fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
     use std::arch::x86_64::*;
 
     let adj_dir_inv = node.compute_extent() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let rdx = r.d.x < 0.0;
-    let rdy = r.d.y < 0.0;
-    let rdz = r.d.z < 0.0;
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let mut hit_mask = 0u32;
+    let sel = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| -> (*const __m128i, *const __m128i) {
+        let (n, f) = if neg { (hi, lo) } else { (lo, hi) };
+        (n.as_ptr() as *const __m128i, f.as_ptr() as *const __m128i)
+    };
+    let (nx, fx) = sel(r.neg[0], &node.child_min_x, &node.child_max_x);
+    let (ny, fy) = sel(r.neg[1], &node.child_min_y, &node.child_max_y);
+    let (nz, fz) = sel(r.neg[2], &node.child_min_z, &node.child_max_z);
 
-    #[inline(always)]
-    fn get_q(v: &[u8; 8], i: usize) -> __m128 {
-        let b = &v[i * 4..i * 4 + 4];
-        unsafe { _mm_set_ps(b[3] as f32, b[2] as f32, b[1] as f32, b[0] as f32) }
-    }
-
-    // SAFETY: SSE/SSE2 are part of the x86_64 baseline.
+    // SAFETY: SSE/SSE2 are part of the x86_64 baseline; the unaligned 8-byte loads read exactly
+    // one `[u8; 8]` field each.
     unsafe {
+        let zi = _mm_setzero_si128();
+        // 8 quantised u8 planes -> two f32x4 (slots 0..4, 4..8).
+        let q = |p: *const __m128i| {
+            let w = _mm_unpacklo_epi8(_mm_loadl_epi64(p), zi);
+            (
+                _mm_cvtepi32_ps(_mm_unpacklo_epi16(w, zi)),
+                _mm_cvtepi32_ps(_mm_unpackhi_epi16(w, zi)),
+            )
+        };
         let dx = _mm_set1_ps(adj_dir_inv.x);
         let dy = _mm_set1_ps(adj_dir_inv.y);
         let dz = _mm_set1_ps(adj_dir_inv.z);
         let ox = _mm_set1_ps(adj_orig.x);
         let oy = _mm_set1_ps(adj_orig.y);
         let oz = _mm_set1_ps(adj_orig.z);
+        let t = |q: __m128, d: __m128, o: __m128| _mm_add_ps(_mm_mul_ps(q, d), o);
+        let (nx0, nx1) = q(nx);
+        let (ny0, ny1) = q(ny);
+        let (nz0, nz1) = q(nz);
         let zero = _mm_setzero_ps();
+        let tmin0 = _mm_max_ps(
+            _mm_max_ps(t(nx0, dx, ox), t(ny0, dy, oy)),
+            _mm_max_ps(t(nz0, dz, oz), zero),
+        );
+        let tmin1 = _mm_max_ps(
+            _mm_max_ps(t(nx1, dx, ox), t(ny1, dy, oy)),
+            _mm_max_ps(t(nz1, dz, oz), zero),
+        );
+        let (fx0, fx1) = q(fx);
+        let (fy0, fy1) = q(fy);
+        let (fz0, fz1) = q(fz);
         let tmax_v = _mm_set1_ps(t_max);
-        for i in 0..2 {
-            let (lo, hi) = (get_q(&node.child_min_x, i), get_q(&node.child_max_x, i));
-            let (xn, xf) = if rdx { (hi, lo) } else { (lo, hi) };
-            let tmin_x = _mm_add_ps(_mm_mul_ps(xn, dx), ox);
-            let tmax_x = _mm_add_ps(_mm_mul_ps(xf, dx), ox);
-            let (lo, hi) = (get_q(&node.child_min_y, i), get_q(&node.child_max_y, i));
-            let (yn, yf) = if rdy { (hi, lo) } else { (lo, hi) };
-            let tmin_y = _mm_add_ps(_mm_mul_ps(yn, dy), oy);
-            let tmax_y = _mm_add_ps(_mm_mul_ps(yf, dy), oy);
-            let (lo, hi) = (get_q(&node.child_min_z, i), get_q(&node.child_max_z, i));
-            let (zn, zf) = if rdz { (hi, lo) } else { (lo, hi) };
-            let tmin_z = _mm_add_ps(_mm_mul_ps(zn, dz), oz);
-            let tmax_z = _mm_add_ps(_mm_mul_ps(zf, dz), oz);
-            let tmin = _mm_max_ps(_mm_max_ps(tmin_x, tmin_y), _mm_max_ps(tmin_z, zero));
-            let tmax = _mm_min_ps(_mm_min_ps(tmax_x, tmax_y), _mm_min_ps(tmax_z, tmax_v));
-            let mut mask = _mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32;
-            while mask != 0 {
-                let j = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let k = i * 4 + j;
-                hit_mask |= extract_byte64(child_bits8, k) << extract_byte64(bit_index8, k);
-            }
-        }
+        let tmax0 = _mm_min_ps(
+            _mm_min_ps(t(fx0, dx, ox), t(fy0, dy, oy)),
+            _mm_min_ps(t(fz0, dz, oz), tmax_v),
+        );
+        let tmax1 = _mm_min_ps(
+            _mm_min_ps(t(fx1, dx, ox), t(fy1, dy, oy)),
+            _mm_min_ps(t(fz1, dz, oz), tmax_v),
+        );
+        _mm_storeu_ps(tmin_out.as_mut_ptr(), tmin0);
+        _mm_storeu_ps(tmin_out.as_mut_ptr().add(4), tmin1);
+        let hit = (_mm_movemask_ps(_mm_cmple_ps(tmin0, tmax0))
+            | (_mm_movemask_ps(_mm_cmple_ps(tmin1, tmax1)) << 4)) as u32;
+        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
+            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
+            zi,
+        )) as u32;
+        hit & !empty & 0xff
     }
-    hit_mask
+}
+
+/// AVX2 version of [`intersect_node`] (all 8 slots in one register; same arithmetic, no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn intersect_node_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+
+    let adj_dir_inv = node.compute_extent() * r.inv_d;
+    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
+    let sel = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| -> (*const __m128i, *const __m128i) {
+        let (n, f) = if neg { (hi, lo) } else { (lo, hi) };
+        (n.as_ptr() as *const __m128i, f.as_ptr() as *const __m128i)
+    };
+    let (nx, fx) = sel(r.neg[0], &node.child_min_x, &node.child_max_x);
+    let (ny, fy) = sel(r.neg[1], &node.child_min_y, &node.child_max_y);
+    let (nz, fz) = sel(r.neg[2], &node.child_min_z, &node.child_max_z);
+    // SAFETY: AVX2 is enabled for this function; the 8-byte loads read one `[u8; 8]` field each.
+    unsafe {
+        let q = |p: *const __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p)));
+        let t = |p: *const __m128i, d: f32, o: f32| {
+            _mm256_add_ps(_mm256_mul_ps(q(p), _mm256_set1_ps(d)), _mm256_set1_ps(o))
+        };
+        let tmin = _mm256_max_ps(
+            _mm256_max_ps(
+                t(nx, adj_dir_inv.x, adj_orig.x),
+                t(ny, adj_dir_inv.y, adj_orig.y),
+            ),
+            _mm256_max_ps(t(nz, adj_dir_inv.z, adj_orig.z), _mm256_setzero_ps()),
+        );
+        let tmax = _mm256_min_ps(
+            _mm256_min_ps(
+                t(fx, adj_dir_inv.x, adj_orig.x),
+                t(fy, adj_dir_inv.y, adj_orig.y),
+            ),
+            _mm256_min_ps(t(fz, adj_dir_inv.z, adj_orig.z), _mm256_set1_ps(t_max)),
+        );
+        _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
+        let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
+        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
+            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
+            _mm_setzero_si128(),
+        )) as u32;
+        hit & !empty & 0xff
+    }
+}
+
+/// Node test, AVX2 when `AVX` (only instantiated inside AVX2-enabled functions).
+#[inline(always)]
+fn node_test<const AVX: bool>(
+    node: &CwBvhNode,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
+        return unsafe { intersect_node_avx2(node, r, t_max, tmin_out) };
+    }
+    intersect_node(node, r, t_max, tmin_out)
 }
 
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, oct_inv4: u32) -> u32 {
-    use obvhs::cwbvh::node::extract_byte64;
+fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
     let adj_dir_inv = node.compute_extent() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
     let mut hit_mask = 0;
     for ch in 0..8 {
         let lo = Vec3A::new(
@@ -217,11 +292,59 @@ fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, oct_inv4: u32) -> u32 
         let t1 = hi * adj_dir_inv + adj_orig;
         let tmin = t0.min(t1).max_element().max(0.0);
         let tmax = t0.max(t1).min_element().min(t_max);
-        if tmin <= tmax {
-            hit_mask |= extract_byte64(child_bits8, ch) << extract_byte64(bit_index8, ch);
+        tmin_out[ch] = tmin;
+        if tmin <= tmax && node.child_meta[ch] != 0 {
+            hit_mask |= 1 << ch;
         }
     }
     hit_mask
+}
+
+/// Is child slot `meta` an internal node? (Internal slots store `24 + slot` in the low 5 bits with
+/// the high bits `001`; leaf slots store a primitive offset < 24.)
+#[inline(always)]
+fn is_inner(meta: u8) -> bool {
+    meta & 0b1_1000 == 0b1_1000
+}
+
+/// Index of the internal child with metadata `meta` of `node`.
+#[inline(always)]
+fn inner_child(node: &CwBvhNode, meta: u8) -> u32 {
+    let slot = (meta & 0b1_1111) - 24;
+    node.child_base_idx + (node.imask as u32 & ((1u32 << slot) - 1)).count_ones()
+}
+
+/// Primitive slot range of the leaf child with metadata `meta` of `node`.
+#[inline(always)]
+fn leaf_range(node: &CwBvhNode, meta: u8) -> std::ops::Range<usize> {
+    let start = (node.primitive_base_idx + (meta & 0b1_1111) as u32) as usize;
+    start..start + (meta >> 5).count_ones() as usize
+}
+
+/// Traversal stack entry: node index and the ray's entry distance into its box.
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    node: u32,
+    t: f32,
+}
+
+/// Stack size for the on-stack traversal stack; deeper BVHs use a heap stack.
+const STACK: usize = 192;
+
+/// Largest triangle-only scene traced with the flat AVX2 loop instead of the BVH.
+const FLAT_MAX: usize = 64;
+
+/// 8 triangles in SoA form (same quantities as [`Prim::triangle`]); padding lanes are masked off.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct FlatBlock {
+    /// v0, v0 - v1, v2 - v0, (v0 - v1) x (v2 - v0); per axis, per lane.
+    a: [[f32; 8]; 3],
+    b: [[f32; 8]; 3],
+    c: [[f32; 8]; 3],
+    d: [[f32; 8]; 3],
+    /// Lane mask of real triangles.
+    mask: u32,
 }
 
 /// The scene's acceleration structure (triangles and spheres in one CWBVH).
@@ -233,6 +356,13 @@ pub struct Accel {
     ids: Vec<u32>,
     n_tris: u32,
     n_spheres: u32,
+    /// Upper bound on the traversal stack depth (7 entries per level).
+    stack_size: usize,
+    /// Use the AVX2 traversal (detected at build time).
+    avx2: bool,
+    /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 only): all triangles in original order,
+    /// tested with a flat 8-wide loop (faster than any traversal at this size).
+    flat: Vec<FlatBlock>,
 }
 
 impl Accel {
@@ -258,6 +388,9 @@ impl Accel {
                 ids: Vec::new(),
                 n_tris: 0,
                 n_spheres: 0,
+                stack_size: 0,
+                avx2: false,
+                flat: Vec::new(),
             };
         }
 
@@ -338,12 +471,16 @@ impl Accel {
             })
             .collect();
 
+        let stack_size = 7 * cwbvh_depth(&bvh) + 1;
         Accel {
             bvh,
             prims,
             ids,
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
+            stack_size,
+            avx2: has_avx2(),
+            flat: Self::flat_blocks(triangles, spheres),
         }
     }
 
@@ -353,103 +490,383 @@ impl Accel {
 
     /// Closest hit with t in (0, t_max). Primitive ids `0..triangles.len()` are triangles
     /// (u, v = barycentrics of v1 and v2), then spheres (u, v unused, 0).
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
-        if self.n_spheres == 0 {
-            self.intersect_impl::<false>(ray, t_max)
-        } else {
-            self.intersect_impl::<true>(ray, t_max)
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only set when the CPU supports AVX2, POPCNT and BMI1.
+            return unsafe { self.intersect_avx2(ray, t_max) };
         }
+        self.intersect_dispatch::<false>(ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn intersect_avx2(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        if !self.flat.is_empty() {
+            return self.intersect_flat(ray, t_max);
+        }
+        self.intersect_dispatch::<true>(ray, t_max)
     }
 
     #[inline(always)]
-    fn intersect_impl<const MIXED: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+    fn intersect_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        if self.stack_size <= STACK {
+            let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
+            if self.n_spheres == 0 {
+                self.intersect_impl::<false, AVX>(ray, t_max, &mut stack)
+            } else {
+                self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
+            }
+        } else {
+            let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
+            self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
+        }
+    }
+
+    fn flat_blocks(triangles: &[Triangle], spheres: &[Sphere]) -> Vec<FlatBlock> {
+        if !spheres.is_empty() || triangles.len() > FLAT_MAX || !has_avx2() {
+            return Vec::new();
+        }
+        triangles
+            .chunks(8)
+            .map(|chunk| {
+                let mut blk = FlatBlock {
+                    mask: (1u32 << chunk.len()) - 1,
+                    ..Default::default()
+                };
+                for (l, t) in chunk.iter().enumerate() {
+                    let p = Prim::triangle(t);
+                    for k in 0..3 {
+                        blk.a[k][l] = p.a[k];
+                        blk.b[k][l] = p.b[k];
+                        blk.c[k][l] = p.c[k];
+                        blk.d[k][l] = p.d[k];
+                    }
+                }
+                blk
+            })
+            .collect()
+    }
+
+    /// 8-wide Möller–Trumbore over one block: hit lane mask (0 < t < t_max) and t, u, v per lane.
+    /// Same operations in the same order as [`Prim::intersect_triangle`], so results are
+    /// bit-identical to it.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn flat_block(
+        blk: &FlatBlock,
+        o: [f32; 3],
+        d: [f32; 3],
+        t_max: f32,
+        out: Option<&mut [[f32; 8]; 3]>,
+    ) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX2 is enabled for this function; all loads read whole `[f32; 8]` fields.
+        unsafe {
+            let ld = |a: &[f32; 8]| _mm256_loadu_ps(a.as_ptr());
+            let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+            let (dx, dy, dz) = (
+                _mm256_set1_ps(d[0]),
+                _mm256_set1_ps(d[1]),
+                _mm256_set1_ps(d[2]),
+            );
+            let cx = sub(ld(&blk.a[0]), _mm256_set1_ps(o[0]));
+            let cy = sub(ld(&blk.a[1]), _mm256_set1_ps(o[1]));
+            let cz = sub(ld(&blk.a[2]), _mm256_set1_ps(o[2]));
+            // rr = d x c
+            let rx = sub(mul(dy, cz), mul(cy, dz));
+            let ry = sub(mul(dz, cx), mul(cz, dx));
+            let rz = sub(mul(dx, cy), mul(cx, dy));
+            let dot = |ax, ay, az, bx: &[f32; 8], by: &[f32; 8], bz: &[f32; 8]| {
+                add(add(mul(ax, ld(bx)), mul(ay, ld(by))), mul(az, ld(bz)))
+            };
+            let det = dot(dx, dy, dz, &blk.d[0], &blk.d[1], &blk.d[2]);
+            let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+            let u = mul(dot(rx, ry, rz, &blk.c[0], &blk.c[1], &blk.c[2]), inv_det);
+            let v = mul(dot(rx, ry, rz, &blk.b[0], &blk.b[1], &blk.b[2]), inv_det);
+            let w = sub(sub(_mm256_set1_ps(1.0), u), v);
+            let neg = _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(u, v), w)) as u32;
+            let t = mul(dot(cx, cy, cz, &blk.d[0], &blk.d[1], &blk.d[2]), inv_det);
+            let ok = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_setzero_ps()),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
+            );
+            let hits = _mm256_movemask_ps(ok) as u32 & !neg & blk.mask;
+            if hits != 0
+                && let Some(out) = out
+            {
+                _mm256_storeu_ps(out[0].as_mut_ptr(), t);
+                _mm256_storeu_ps(out[1].as_mut_ptr(), u);
+                _mm256_storeu_ps(out[2].as_mut_ptr(), v);
+            }
+            hits
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn intersect_flat(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let (o, d) = (ray.o.to_array(), ray.d.to_array());
+        let mut best: Option<Hit> = None;
+        let mut t_best = t_max;
+        let mut tuv = [[0.0f32; 8]; 3];
+        for (k, blk) in self.flat.iter().enumerate() {
+            let mut hits = Self::flat_block(blk, o, d, t_best, Some(&mut tuv));
+            while hits != 0 {
+                let l = hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                // Lowest index wins ties, as in a linear scan.
+                if tuv[0][l] < t_best {
+                    t_best = tuv[0][l];
+                    best = Some(Hit {
+                        t: t_best,
+                        prim: (k * 8 + l) as u32,
+                        u: tuv[1][l],
+                        v: tuv[2][l],
+                    });
+                }
+            }
+        }
+        best
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn occluded_flat(&self, ray: &Ray, t_max: f32) -> bool {
+        let (o, d) = (ray.o.to_array(), ray.d.to_array());
+        self.flat
+            .iter()
+            .any(|blk| Self::flat_block(blk, o, d, t_max, None) != 0)
+    }
+
+    /// Intersect primitive slot `slot`; returns (t, u, v) (t failing `0 < t < t_max` on a miss).
+    #[inline(always)]
+    fn intersect_slot<const MIXED: bool>(
+        &self,
+        slot: usize,
+        r: &TRay,
+        t_max: f32,
+    ) -> (f32, f32, f32) {
+        // SAFETY: the CWBVH only addresses slots 0..primitive_indices.len() == prims.len().
+        let p = unsafe { self.prims.get_unchecked(slot) };
+        if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
+            (p.intersect_sphere(r, t_max), 0.0, 0.0)
+        } else {
+            p.intersect_triangle(r)
+        }
+    }
+
+    /// Closest-hit traversal: leaf children are tested as soon as their node is, internal
+    /// children are visited nearest first (sorted by entry distance), and popped entries farther
+    /// than the current hit are skipped.
+    #[inline(always)]
+    fn intersect_impl<const MIXED: bool, const AVX: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        stack: &mut [MaybeUninit<Entry>],
+    ) -> Option<Hit> {
         let r = TRay::new(ray);
+        let nodes = &self.bvh.nodes[..];
         let mut t_best = t_max;
         let mut slot_best = u32::MAX;
         let (mut u_best, mut v_best) = (0.0, 0.0);
-        let mut state = self.bvh.new_traversal(r.d);
-        let mut node;
-        traverse!(
-            self.bvh,
-            node,
-            state,
-            intersect_node(node, &r, t_best, state.oct_inv4),
-            {
-                let slot = state.primitive_id as usize;
-                // SAFETY: the CWBVH only addresses slots 0..primitive_indices.len() == prims.len().
-                let p = unsafe { self.prims.get_unchecked(slot) };
-                if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
-                    let t = p.intersect_sphere(&r, t_best);
-                    if t > 0.0 && t < t_best {
-                        t_best = t;
-                        slot_best = slot as u32;
-                        u_best = 0.0;
-                        v_best = 0.0;
-                    }
-                } else {
-                    let (t, u, v) = p.intersect_triangle(&r);
-                    if t > 0.0 && t < t_best {
-                        t_best = t;
-                        slot_best = slot as u32;
-                        u_best = u;
-                        v_best = v;
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        let mut tmins = [0.0f32; 8];
+        loop {
+            // SAFETY: child indices produced by the CWBVH builder are in bounds.
+            let node = unsafe { nodes.get_unchecked(cur as usize) };
+            let mut hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
+            // Leaves first (they can shrink t_best before the inner children are ordered).
+            let mut inner = [Entry::default(); 8];
+            let mut n_inner = 0;
+            while hits != 0 {
+                let i = hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                let meta = node.child_meta[i];
+                if is_inner(meta) {
+                    inner[n_inner] = Entry {
+                        node: inner_child(node, meta),
+                        t: tmins[i],
+                    };
+                    n_inner += 1;
+                } else if tmins[i] <= t_best {
+                    for slot in leaf_range(node, meta) {
+                        let (t, u, v) = self.intersect_slot::<MIXED>(slot, &r, t_best);
+                        if t > 0.0 && t < t_best {
+                            t_best = t;
+                            slot_best = slot as u32;
+                            u_best = u;
+                            v_best = v;
+                        }
                     }
                 }
             }
-        );
-        (slot_best != u32::MAX).then(|| Hit {
-            t: t_best,
-            prim: self.ids[slot_best as usize],
-            u: u_best,
-            v: v_best,
-        })
+            // Order inner children far to near (insertion sort, at most 8), push all but the
+            // nearest and descend into that one directly.
+            for k in 1..n_inner {
+                let e = inner[k];
+                let mut j = k;
+                while j > 0 && inner[j - 1].t < e.t {
+                    inner[j] = inner[j - 1];
+                    j -= 1;
+                }
+                inner[j] = e;
+            }
+            if n_inner > 0 && inner[n_inner - 1].t <= t_best {
+                for e in &inner[..n_inner - 1] {
+                    if e.t <= t_best {
+                        stack[sp] = MaybeUninit::new(*e);
+                        sp += 1;
+                    }
+                }
+                cur = inner[n_inner - 1].node;
+                continue;
+            }
+            // Pop the nearest pending entry still in range.
+            loop {
+                if sp == 0 {
+                    return (slot_best != u32::MAX).then(|| Hit {
+                        t: t_best,
+                        prim: self.ids[slot_best as usize],
+                        u: u_best,
+                        v: v_best,
+                    });
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` have been written.
+                let e = unsafe { stack[sp].assume_init() };
+                if e.t <= t_best {
+                    cur = e.node;
+                    break;
+                }
+            }
+        }
     }
 
     /// Any hit with t in (0, t_max).
+    #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
-        if self.n_spheres == 0 {
-            self.occluded_impl::<false>(ray, t_max)
-        } else {
-            self.occluded_impl::<true>(ray, t_max)
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: see `intersect`.
+            return unsafe { self.occluded_avx2(ray, t_max) };
         }
+        self.occluded_dispatch::<false>(ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    fn occluded_avx2(&self, ray: &Ray, t_max: f32) -> bool {
+        if !self.flat.is_empty() {
+            return self.occluded_flat(ray, t_max);
+        }
+        self.occluded_dispatch::<true>(ray, t_max)
     }
 
     #[inline(always)]
-    fn occluded_impl<const MIXED: bool>(&self, ray: &Ray, t_max: f32) -> bool {
-        let r = TRay::new(ray);
-        let mut state = self.bvh.new_traversal(r.d);
-        let mut node;
-        // Note: `break` inside `traverse!`'s primitive block only leaves the leaf loop, so
-        // break out of a labelled block instead.
-        'search: {
-            traverse!(
-                self.bvh,
-                node,
-                state,
-                intersect_node(node, &r, t_max, state.oct_inv4),
-                {
-                    let slot = state.primitive_id as usize;
-                    // SAFETY: see `intersect_impl`.
-                    let p = unsafe { self.prims.get_unchecked(slot) };
-                    let t = if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
-                        p.intersect_sphere(&r, t_max)
-                    } else {
-                        p.intersect_triangle(&r).0
-                    };
-                    if t > 0.0 && t < t_max {
-                        break 'search true;
-                    }
-                }
-            );
-            false
+    fn occluded_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> bool {
+        if self.stack_size <= STACK {
+            let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
+            if self.n_spheres == 0 {
+                self.occluded_impl::<false, AVX>(ray, t_max, &mut stack)
+            } else {
+                self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
+            }
+        } else {
+            let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
+            self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
         }
     }
+
+    /// Any-hit traversal: no ordering, exit on the first hit.
+    #[inline(always)]
+    fn occluded_impl<const MIXED: bool, const AVX: bool>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        stack: &mut [MaybeUninit<u32>],
+    ) -> bool {
+        let r = TRay::new(ray);
+        let nodes = &self.bvh.nodes[..];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        let mut tmins = [0.0f32; 8];
+        loop {
+            // SAFETY: see `intersect_impl`.
+            let node = unsafe { nodes.get_unchecked(cur as usize) };
+            let mut hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
+            let mut next = u32::MAX;
+            while hits != 0 {
+                let i = hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                let meta = node.child_meta[i];
+                if is_inner(meta) {
+                    if next != u32::MAX {
+                        stack[sp] = MaybeUninit::new(next);
+                        sp += 1;
+                    }
+                    next = inner_child(node, meta);
+                } else {
+                    for slot in leaf_range(node, meta) {
+                        let t = self.intersect_slot::<MIXED>(slot, &r, t_max).0;
+                        if t > 0.0 && t < t_max {
+                            return true;
+                        }
+                    }
+                }
+            }
+            if next != u32::MAX {
+                cur = next;
+            } else if sp == 0 {
+                return false;
+            } else {
+                sp -= 1;
+                // SAFETY: entries below `sp` have been written.
+                cur = unsafe { stack[sp].assume_init() };
+            }
+        }
+    }
+}
+
+/// Whether the AVX2 traversal can be used on this CPU.
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("popcnt")
+            && std::is_x86_feature_detected!("bmi1")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// Depth (in nodes) of a CWBVH.
+fn cwbvh_depth(bvh: &CwBvh) -> usize {
+    if bvh.nodes.is_empty() {
+        return 0;
+    }
+    let mut max = 0;
+    let mut todo = vec![(0u32, 1usize)];
+    while let Some((n, d)) = todo.pop() {
+        max = max.max(d);
+        let node = &bvh.nodes[n as usize];
+        for &meta in &node.child_meta {
+            if meta != 0 && is_inner(meta) {
+                todo.push((inner_child(node, meta), d + 1));
+            }
+        }
+    }
+    max
 }
 
 /// Brute-force reference intersection (same primitive intersectors, no BVH); for tests.
@@ -540,6 +957,9 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(seed);
         let accel = Accel::build(tris, spheres);
         assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
+        // The portable (SSE2) traversal must agree with the AVX2 one where both exist.
+        let mut portable = Accel::build(tris, spheres);
+        portable.avx2 = false;
         let mut hits = 0;
         for k in 0..n_rays {
             // Mix of rays from outside, rays from inside spheres, and short rays.
@@ -606,6 +1026,17 @@ mod tests {
                 bf.is_some(),
                 "ray {k}: occlusion"
             );
+            let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
+            assert_eq!(
+                key(portable.intersect(&ray, t_max)),
+                key(got),
+                "ray {k}: portable"
+            );
+            assert_eq!(
+                portable.occluded(&ray, t_max),
+                bf.is_some(),
+                "ray {k}: portable occlusion"
+            );
         }
         if n_rays > 100 && tris.len() + spheres.len() > 10 {
             assert!(hits > n_rays / 10, "too few hits to be meaningful: {hits}");
@@ -624,6 +1055,15 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(3);
         let (t, s) = scene(&mut rng, 5000, 0);
         check(&t, &s, 5000, 4);
+    }
+
+    #[test]
+    fn tiny_triangle_scenes() {
+        for (n, seed) in [(2, 21), (7, 22), (8, 23), (33, 24), (64, 25), (65, 26)] {
+            let mut rng = Pcg64::seed_from_u64(seed);
+            let (t, s) = scene(&mut rng, n, 0);
+            check(&t, &s, 3000, seed + 100);
+        }
     }
 
     #[test]

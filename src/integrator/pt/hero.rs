@@ -453,8 +453,8 @@ mod tests {
             let a = LaneArr::rotate(4, hero, range);
             let mut h = [0.0; 4];
             HeroWavelengths::rotate(hero, range, &mut h);
-            for j in 0..4 {
-                assert!((v.lane(j) - h[j]).abs() < 1e-3 && (a.lane(j) - h[j]).abs() < 1e-3);
+            for (j, &hj) in h.iter().enumerate() {
+                assert!((v.lane(j) - hj).abs() < 1e-3 && (a.lane(j) - hj).abs() < 1e-3);
                 assert!(range.contains(v.lane(j)));
             }
             let (bv, ba) = (v.box_mask(450.0, 600.0, 2.0), a.box_mask(450.0, 600.0, 2.0));

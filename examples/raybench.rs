@@ -1,0 +1,73 @@
+//! Single-threaded ray throughput on the stored ray sets (for A/B runs and callgrind):
+//! `target/release/examples/raybench SET [N_RAYS] [REPS] [occ]`.
+#[path = "../tests/common/ray_sets.rs"]
+mod ray_sets;
+
+use stokes::geometry::{Accel, Ray};
+
+#[inline(never)]
+fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
+    let mut s = 0.0f64;
+    for r in rays {
+        if occ {
+            s += accel.occluded(r, 1.0) as u32 as f64;
+        } else if let Some(h) = accel.intersect(r, f32::INFINITY) {
+            s += h.t as f64;
+        }
+    }
+    s
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let set = ray_sets::load(&a[1]);
+    let n: usize = a
+        .get(2)
+        .map_or(set.rays.len(), |s| s.parse().unwrap())
+        .min(set.rays.len());
+    let reps: usize = a.get(3).map_or(5, |s| s.parse().unwrap());
+    let occ = a.get(4).is_some_and(|s| s == "occ");
+    let accel = match std::env::var("PRESET").as_deref() {
+        Ok(p) => {
+            use obvhs::BvhBuildParams as B;
+            let mut params = match p {
+                "fastest" => B::fastest_build(),
+                "very_fast" => B::very_fast_build(),
+                "fast" => B::fast_build(),
+                "medium" => B::medium_build(),
+                "slow" => B::slow_build(),
+                "very_slow" => B::very_slow_build(),
+                _ => panic!("preset"),
+            };
+            if let Ok(l) = std::env::var("LEAF") {
+                params.max_prims_per_leaf = l.parse().unwrap();
+            }
+            if let Ok(l) = std::env::var("REINS") {
+                params.reinsertion_batch_ratio = l.parse().unwrap();
+            }
+            let split = std::env::var("NOSPLIT").is_err();
+            let t0 = std::time::Instant::now();
+            let a = Accel::build_with(&set.tris, &[], params, split);
+            eprintln!("build {p} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+            a
+        }
+        Err(_) => Accel::build(&set.tris, &[]),
+    };
+    let mut best = f64::INFINITY;
+    let mut times = vec![];
+    let mut chk = 0.0;
+    for _ in 0..reps {
+        let t0 = std::time::Instant::now();
+        chk = trace_all(&accel, &set.rays[..n], occ);
+        let t = t0.elapsed().as_secs_f64();
+        best = best.min(t);
+        times.push(t);
+    }
+    times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    println!(
+        "{} n={n} occ={occ}: best {:.3} Mrays/s, median {:.3} Mrays/s (1 thread) chk {chk:.3}",
+        a[1],
+        n as f64 / best * 1e-6,
+        n as f64 / times[times.len() / 2] * 1e-6
+    );
+}
