@@ -185,8 +185,8 @@ impl Bdpt {
                     sampler.next(),
                     self.light_wavelengths,
                 );
-                lv.lambda_in = l;
-                lv.lambda_out = l;
+                lv.data.lambda_in = l;
+                lv.data.lambda_out = l;
             }
             path.v.push(lv);
         } else {

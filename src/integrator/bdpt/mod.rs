@@ -2,13 +2,19 @@
 //! segment, camera and light sub-paths that sample wavelengths independently, the forward or
 //! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6).
 //!
+//! - `geometric`: the wavelength-free core shared with `bdpt-allbins`: vertices with area pdfs
+//!   in both directions, light-point and emission sampling, the random walk, pbrt-style pdfs.
 //! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths and
 //!   area pdfs in both directions.
 //! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
 //! - `mis`: the full pdf p_A · p_Λ of every strategy for one path, and the MIS weights.
 //! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19).
+//! - `allbins`: `bdpt-allbins` (Jung 6.5), the same geometric sub-paths evaluated for every
+//!   wavelength bin at once.
 
+pub mod allbins;
 pub mod evaluate;
+pub mod geometric;
 pub mod mis;
 pub mod reset;
 pub mod subpath;

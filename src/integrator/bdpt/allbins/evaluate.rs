@@ -2,9 +2,10 @@
 //! and the spectral factor is an inner product of an importance row with a light spectrum, so a
 //! connection costs O(bins) whatever the path length.
 
-use super::subpath::{Vertex, VertexKind};
+use super::Vertex;
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray_to;
+use crate::integrator::bdpt::geometric::VertexKind;
 use crate::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;
