@@ -8,7 +8,7 @@
 //! so a pdf depends only on the vertices involved: [`Vertex::pdf`] evaluates any of them.
 
 use crate::geometry::frame::sample_cosine_hemisphere;
-use crate::geometry::ray::spawn_ray;
+use crate::geometry::ray::{offset_origin, spawn_ray, spawn_ray_to};
 use crate::geometry::{Frame, Ray};
 use crate::integrator::Sampler;
 use crate::integrator::pt::sample_diffuse;
@@ -199,6 +199,24 @@ pub fn sample_emission<P>(scene: &Scene, v0: &Vertex<P>, sampler: &mut Sampler) 
     let d = Frame::from_normal(n).to_world(local);
     let pdf_dir = emission_pdf_dir(light.two_sided, v0.n, d);
     (spawn_ray(v0.p, v0.n, d), pdf_dir)
+}
+
+/// Shadow ray between two surface vertices `a` (camera side) and `b`; counted in `rays`.
+#[inline]
+pub fn visible<P, Q>(scene: &Scene, a: &Vertex<P>, b: &Vertex<Q>, rays: &mut u64) -> bool {
+    *rays += 1;
+    let (ray, tmax) = spawn_ray_to(a.p, a.n, b.p, b.n);
+    !scene.occluded(&ray, tmax)
+}
+
+/// Shadow ray from surface vertex `a` to the pinhole at `cam`; counted in `rays`.
+#[inline]
+pub fn visible_to_camera<P>(scene: &Scene, a: &Vertex<P>, cam: Vec3, rays: &mut u64) -> bool {
+    *rays += 1;
+    let o = offset_origin(a.p, a.n, cam - a.p);
+    let d = cam - o;
+    let len = d.length();
+    !scene.occluded(&Ray::new(o, d / len), len * (1.0 - 1e-4))
 }
 
 /// What [`random_walk`] does after the integrator has seen a new vertex.

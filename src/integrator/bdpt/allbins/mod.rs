@@ -11,14 +11,16 @@ pub mod binops;
 pub mod evaluate;
 pub mod mis;
 
-use super::geometric::{self, Step, VertexKind, random_walk, sample_emission};
+use super::geometric::{
+    self, Step, VertexKind, random_walk, sample_emission, visible, visible_to_camera,
+};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
 use binops::SupportedOp;
-use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we, visible, visible_to_camera};
+use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we};
 use glam::Vec3;
 use std::f32::consts::PI;
 
