@@ -131,6 +131,19 @@ impl Bdpt {
     }
 }
 
+/// Names of the strategy images `s{s}_t{t}` (s camera vertices, t light vertices) for paths of
+/// up to `max_depth` segments, in the order of [`strategy_layer`]; shared with `bdpt-allbins`.
+pub fn strategy_layer_names(max_depth: usize) -> Vec<String> {
+    let mut names = Vec::new();
+    for k in 2..=max_depth + 1 {
+        for s in 1..=k {
+            debug_assert_eq!(strategy_layer(s, k - s), names.len());
+            names.push(format!("s{}_t{}", s, k - s));
+        }
+    }
+    names
+}
+
 impl Scratch {
     pub fn camera(&self) -> &[Vertex] {
         &self.cam
@@ -156,14 +169,7 @@ impl Integrator for Bdpt {
         if !self.strategy_images {
             return Vec::new();
         }
-        let mut names = Vec::new();
-        for k in 2..=self.max_depth as usize + 1 {
-            for s in 1..=k {
-                debug_assert_eq!(strategy_layer(s, k - s), names.len());
-                names.push(format!("s{}_t{}", s, k - s));
-            }
-        }
-        names
+        strategy_layer_names(self.max_depth as usize)
     }
 
     fn sample(

@@ -14,6 +14,7 @@ pub mod mis;
 use super::geometric::{
     self, Step, VertexKind, random_walk, sample_emission, visible, visible_to_camera,
 };
+use super::{strategy_layer, strategy_layer_names};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
@@ -73,6 +74,8 @@ pub struct BdptAllbins {
     w_support: Support,
     /// Evaluate only this strategy (s, t), unweighted (for tests of single estimators).
     pub only: Option<(usize, usize)>,
+    /// One image per strategy, named as bdpt's (`s{camera vertices}_t{light vertices}`).
+    strategy_images: bool,
 }
 
 /// Per-thread buffers, reused across samples.
@@ -149,6 +152,7 @@ impl BdptAllbins {
             w,
             w_support,
             only: None,
+            strategy_images: o.strategy_images,
         })
     }
 }
@@ -189,6 +193,13 @@ impl Integrator for BdptAllbins {
             spec_support: vec![Support::EMPTY; v],
             rows_support: vec![Support::EMPTY; v],
         }
+    }
+
+    fn aux_layers(&self) -> Vec<String> {
+        if !self.strategy_images {
+            return Vec::new();
+        }
+        strategy_layer_names(self.max_depth)
     }
 
     fn sample(
@@ -323,6 +334,10 @@ impl Integrator for BdptAllbins {
                     }
                     let w = self.weight(scene, self.mis, light, camera, 0, t, None);
                     value += c * w;
+                    if self.strategy_images {
+                        // bdpt's layer order: (camera vertices, light vertices)
+                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
+                    }
                     sink.stats.contribution(segments);
                 } else if t == 1 {
                     // Light tracing: connect y_{s−1} to the pinhole and splat.
@@ -353,6 +368,11 @@ impl Integrator for BdptAllbins {
                     let zc = camera_vertex(scene);
                     let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
                     if sink.splat(px, py, c * w) {
+                        if self.strategy_images {
+                            let pix = (py as u32).min(sink.height - 1) * sink.width
+                                + (px as u32).min(sink.width - 1);
+                            sink.aux(strategy_layer(1, s), pix, c * w);
+                        }
                         sink.stats.contribution(segments);
                     }
                 } else {
@@ -410,6 +430,10 @@ impl Integrator for BdptAllbins {
                         if s == 1 { Some(yv) } else { None },
                     );
                     value += c * w;
+                    if self.strategy_images {
+                        // bdpt's layer order: (camera vertices, light vertices)
+                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
+                    }
                     sink.stats.contribution(segments);
                 }
             }
