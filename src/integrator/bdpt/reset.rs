@@ -23,7 +23,7 @@ fn copy_camera(path: &mut FullPath, s: usize) {
     for i in 0..s.min(path.k - 1) {
         path.lambda[i] = path.v[i].data.lambda_in;
         if i >= 1 {
-            path.shift[i] = path.v[i].data.shift;
+            path.shift[i] = path.v[i].shift;
         }
     }
 }
@@ -35,7 +35,7 @@ fn copy_light(path: &mut FullPath, from: usize) {
     for i in from.max(1)..k {
         path.lambda[i - 1] = path.v[i].data.lambda_out;
         if i <= k - 2 {
-            path.shift[i] = path.v[i].data.shift;
+            path.shift[i] = path.v[i].shift;
         }
     }
 }

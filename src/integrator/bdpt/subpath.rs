@@ -1,7 +1,7 @@
 //! Camera and light sub-paths of `bdpt-forward`/`bdpt-backward` (Jung Alg. 1 and Alg. 3): the
 //! shared geometric walk of `geometric.rs` with per-vertex wavelengths layered on top. Every
 //! vertex stores the wavelength on its light side (`lambda_in`) and on its camera side
-//! (`lambda_out`) and whether the vertex shifted the wavelength.
+//! (`lambda_out`); whether the vertex shifted the wavelength is the core vertex's `shift`.
 
 use super::geometric::{self, Step};
 use crate::integrator::{LightWavelengths, Sampler, Stats};
@@ -17,8 +17,6 @@ pub struct Lambdas {
     pub lambda_in: f32,
     /// Wavelength leaving toward the camera side (λ_{i-1} at x_i).
     pub lambda_out: f32,
-    /// Whether `lambda_in != lambda_out` was sampled (a fluorescent interaction).
-    pub shift: bool,
 }
 
 /// A sub-path vertex: geometry and area pdfs (shared core) plus wavelengths.
@@ -62,7 +60,6 @@ pub fn camera_subpath(
             v.data = Lambdas {
                 lambda_in: lambda_out,
                 lambda_out,
-                shift: false,
             };
             if v.material == NONE {
                 return Step::Stop;
@@ -72,7 +69,7 @@ pub fn camera_subpath(
                 // eq. 6.6: decide with P_c, then sample the absorption side
                 let s = m.sample_wavelength_camera(lambda_out, sampler.next2(), mode);
                 v.data.lambda_in = s.lambda;
-                v.data.shift = s.shifted;
+                v.shift = s.shifted;
                 beta *= s.weight;
             } else {
                 beta *= m.diagonal(lambda_out);
@@ -173,14 +170,13 @@ pub fn light_subpath(
             v.data = Lambdas {
                 lambda_in,
                 lambda_out: lambda_in,
-                shift: false,
             };
             let m: &Material = &scene.materials[v.material as usize];
             if m.is_fluorescent() {
                 // eq. 6.7: decide with P_l, then sample the emission side
                 let s = m.sample_wavelength_light(lambda_in, sampler.next2(), mode);
                 v.data.lambda_out = s.lambda;
-                v.data.shift = s.shifted;
+                v.shift = s.shifted;
                 beta *= s.weight;
             } else {
                 beta *= m.diagonal(lambda_in);

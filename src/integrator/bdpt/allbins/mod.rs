@@ -47,6 +47,7 @@ fn camera_vertex(scene: &Scene) -> Vertex {
         light: NONE,
         pdf_fwd: 1.0,
         pdf_rev: 0.0,
+        shift: false,
         data: Throughput { beta: 1.0 },
     }
 }
