@@ -101,31 +101,36 @@ impl<P> Vertex<P> {
         self.light != NONE
     }
 
-    /// Solid-angle → area conversion at `next` for a direction leaving `self` (pbrt
-    /// `ConvertDensity`): p_A = p_ω · |cos θ_next| / d².
+    /// Unit direction to `next` and the squared distance.
     #[inline]
-    pub fn to_area<Q>(&self, pdf_dir: f32, next: &Vertex<Q>) -> f32 {
+    fn towards<Q>(&self, next: &Vertex<Q>) -> (Vec3, f32) {
         let d = next.p - self.p;
-        let inv_d2 = 1.0 / d.length_squared();
+        let d2 = d.length_squared();
+        (d / d2.sqrt(), d2)
+    }
+
+    /// Solid-angle → area conversion (pbrt `ConvertDensity`): p_A = p_ω · |cos θ_next| / d² for the unit direction `w` to `next` at squared distance
+    /// `d2` (no cosine at the pinhole).
+    #[inline]
+    fn area_of<Q>(pdf_dir: f32, w: Vec3, d2: f32, next: &Vertex<Q>) -> f32 {
         let cos = if next.on_surface() {
-            next.n.dot(d * inv_d2.sqrt()).abs()
+            next.n.dot(w).abs()
         } else {
             1.0
         };
-        pdf_dir * cos * inv_d2
+        pdf_dir * cos / d2
     }
 
     /// Area pdf that a scattering vertex, reached from `prev`, samples `next` (two-sided
     /// reflective diffuse lobe: cosine-weighted on the side of `prev`).
     #[inline]
     pub fn pdf_scatter<Q, R>(&self, prev: &Vertex<Q>, next: &Vertex<R>) -> f32 {
-        let wn = (next.p - self.p).normalize();
-        let wp = prev.p - self.p;
-        let (cn, cp) = (self.n.dot(wn), self.n.dot(wp));
+        let (w, d2) = self.towards(next);
+        let (cn, cp) = (self.n.dot(w), self.n.dot(prev.p - self.p));
         if cn * cp <= 0.0 {
             return 0.0;
         }
-        self.to_area(cn.abs() * FRAC_1_PI, next)
+        Self::area_of(cn.abs() * FRAC_1_PI, w, d2, next)
     }
 
     /// Area pdf that the light sub-path's emission sampling leaves this emitter point towards
@@ -133,8 +138,8 @@ impl<P> Vertex<P> {
     #[inline]
     pub fn pdf_emit<Q>(&self, scene: &Scene, next: &Vertex<Q>) -> f32 {
         let light = &scene.lights[self.light as usize];
-        let w = (next.p - self.p).normalize();
-        self.to_area(emission_pdf_dir(light.two_sided, self.n, w), next)
+        let (w, d2) = self.towards(next);
+        Self::area_of(emission_pdf_dir(light.two_sided, self.n, w), w, d2, next)
     }
 
     /// Area pdf of choosing this emitter point as a light origin (pbrt `PdfLightOrigin`).
@@ -150,12 +155,12 @@ impl<P> Vertex<P> {
     pub fn pdf<Q, R>(&self, scene: &Scene, prev: Option<&Vertex<Q>>, next: &Vertex<R>) -> f32 {
         match self.kind {
             VertexKind::Camera => {
-                let d = (next.p - self.p).normalize();
-                let cos = d.dot(self.n);
-                if cos <= 0.0 || scene.camera.project(d).is_none() {
+                let (w, d2) = self.towards(next);
+                let cos = w.dot(self.n);
+                if cos <= 0.0 || scene.camera.project(w).is_none() {
                     return 0.0;
                 }
-                self.to_area(scene.camera.pdf_dir(cos), next)
+                Self::area_of(scene.camera.pdf_dir(cos), w, d2, next)
             }
             VertexKind::Light => self.pdf_emit(scene, next),
             VertexKind::Surface => match prev {
