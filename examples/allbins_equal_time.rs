@@ -1,4 +1,4 @@
-//! Equal-time comparison of bdpt-allbins against pt-mono (add bdpt-forward when it lands):
+//! Equal-time comparison of bdpt-allbins against pt-mono and bdpt-forward:
 //! SNR_dB and relMSE against a high-spp reference, each integrator given the same wall time on
 //! one thread.
 //!
@@ -57,7 +57,11 @@ fn main() {
     .xyz();
     println!("{name} {res}x{res}, {secs} s on 1 thread, reference bdpt-allbins {ref_spp} spp");
     println!("integrator     spp   seconds  samples/s   SNR_dB   relMSE");
-    for kind in [IntegratorKind::PtMono, IntegratorKind::BdptAllbins] {
+    for kind in [
+        IntegratorKind::PtMono,
+        IntegratorKind::BdptForward,
+        IntegratorKind::BdptAllbins,
+    ] {
         let out = render(
             &scene,
             kind,

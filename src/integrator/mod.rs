@@ -2,8 +2,9 @@
 //! stream and the sink that receives contributions. One integrator per file; the render loop is
 //! in `render.rs`.
 
-pub mod allbins;
 pub mod bdpt;
+/// `bdpt-allbins` lives in `bdpt::allbins`; this path is kept for existing callers.
+pub use bdpt::allbins;
 pub mod pt;
 pub mod render;
 

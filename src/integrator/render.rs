@@ -86,7 +86,7 @@ pub fn render(
         ),
         IntegratorKind::BdptAllbins => run(
             scene,
-            &super::allbins::BdptAllbins::new(scene, opts)?,
+            &super::bdpt::allbins::BdptAllbins::new(scene, opts)?,
             settings,
             on_pass,
         ),

@@ -1,49 +1,15 @@
 //! Connecting sub-paths for every strategy (s, t), the measurement contribution f_j (eq. 6.2)
 //! and the weighted throughput w · f / p (eqs. 6.18, 6.19).
 
+use super::geometric::{visible, visible_to_camera};
 use super::mis::{FullPath, ResetMode};
 use super::reset;
-use super::subpath::{
-    Vertex, VertexKind, emission_pdf_dir, light_lambda_pdf, sample_light_lambda,
-    sample_light_vertex,
-};
+use super::subpath::{Vertex, light_lambda_pdf, sample_light_lambda, sample_light_vertex};
 use super::{Bdpt, Scratch};
-use crate::geometry::Ray;
-use crate::geometry::ray::{offset_origin, spawn_ray_to};
 use crate::integrator::{SampleSink, Sampler};
 use crate::material::{Bbrrdf, Material};
 use crate::scene::{NONE, Scene};
 use std::f64::consts::FRAC_1_PI;
-
-/// Area pdf of sampling `to` from `from` in the direction of generation (camera, light or
-/// diffuse surface), as pbrt-v4's `Vertex::Pdf`.
-fn area_pdf(scene: &Scene, from: &Vertex, to: &Vertex) -> f64 {
-    let d = to.p - from.p;
-    let d2 = d.length_squared();
-    if d2 <= 0.0 {
-        return 0.0;
-    }
-    let w = d / d2.sqrt();
-    let pdf_dir = match from.kind {
-        VertexKind::Camera => {
-            let c = w.dot(scene.camera.forward);
-            if c <= 0.0 {
-                return 0.0;
-            }
-            scene.camera.pdf_dir(c) as f64
-        }
-        VertexKind::Light => {
-            emission_pdf_dir(scene.lights[from.light as usize].two_sided, from.n, w) as f64
-        }
-        VertexKind::Surface => from.n.dot(w).abs() as f64 * FRAC_1_PI,
-    };
-    let cos_to = if to.kind == VertexKind::Camera {
-        1.0
-    } else {
-        to.n.dot(w).abs() as f64
-    };
-    pdf_dir * cos_to / d2 as f64
-}
 
 /// The measurement contribution f_j of the path (eq. 6.2) without visibility, with the pinhole
 /// importance We = 1 / (A cos⁴θ) of the whole film at unit distance (the camera strategies' pixel
@@ -109,19 +75,17 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
             path.pa_rev[i] = x.pdf_fwd as f64;
         }
     }
+    // the pdfs across the connection, from the shared geometric core (pbrt `Vertex::Pdf`)
+    let v = &path.v;
     if t == 0 {
         // the camera path hit the emitter: light point and emission pdfs at x(k−1)
-        let e = path.v[k - 1];
-        let li = e.light as usize;
-        let light = &scene.lights[li];
-        path.pa_rev[k - 1] = (scene.light_pmf(li) / light.area) as f64;
-        let mut ev = e;
-        ev.kind = VertexKind::Light;
-        path.pa_rev[k - 2] = area_pdf(scene, &ev, &path.v[k - 2]);
+        let e = &v[k - 1];
+        path.pa_rev[k - 1] = e.pdf_light_origin(scene) as f64;
+        path.pa_rev[k - 2] = e.pdf_emit(scene, &v[k - 2]) as f64;
     } else {
         // the connection segment x(s−1) ↔ x_s
-        path.pa_fwd[s] = area_pdf(scene, &path.v[s - 1], &path.v[s]);
-        path.pa_rev[s - 1] = area_pdf(scene, &path.v[s], &path.v[s - 1]);
+        path.pa_fwd[s] = v[s - 1].pdf(scene, s.checked_sub(2).map(|i| &v[i]), &v[s]) as f64;
+        path.pa_rev[s - 1] = v[s].pdf(scene, v.get(s + 1), &v[s - 1]) as f64;
     }
     // wavelength pdfs of each interior vertex (eqs. 6.6–6.8)
     for i in 1..=k.saturating_sub(2) {
@@ -185,8 +149,8 @@ impl Bdpt {
                     sampler.next(),
                     self.light_wavelengths,
                 );
-                lv.lambda_in = l;
-                lv.lambda_out = l;
+                lv.data.lambda_in = l;
+                lv.data.lambda_out = l;
             }
             path.v.push(lv);
         } else {
@@ -230,18 +194,14 @@ impl Bdpt {
         }
         // visibility of the connecting segment
         if t >= 1 {
-            sink.stats.rays += 1;
             let (a, b) = (&path.v[s - 1], &path.v[s]);
-            let (ray, tmax) = if s == 1 {
-                let d = a.p - b.p;
-                let o = offset_origin(b.p, b.n, d);
-                let dd = a.p - o;
-                let len = dd.length();
-                (Ray::new(o, dd / len), len * (1.0 - 1e-4))
+            let rays = &mut sink.stats.rays;
+            let vis = if s == 1 {
+                visible_to_camera(scene, b, a.p, rays)
             } else {
-                spawn_ray_to(a.p, a.n, b.p, b.n)
+                visible(scene, a, b, rays)
             };
-            if scene.occluded(&ray, tmax) {
+            if !vis {
                 return;
             }
         }

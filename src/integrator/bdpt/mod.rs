@@ -2,13 +2,19 @@
 //! segment, camera and light sub-paths that sample wavelengths independently, the forward or
 //! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6).
 //!
+//! - `geometric`: the wavelength-free core shared with `bdpt-allbins`: vertices with area pdfs
+//!   in both directions, light-point and emission sampling, the random walk, pbrt-style pdfs.
 //! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths and
 //!   area pdfs in both directions.
 //! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
 //! - `mis`: the full pdf p_A · p_Λ of every strategy for one path, and the MIS weights.
 //! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19).
+//! - `allbins`: `bdpt-allbins` (Jung 6.5), the same geometric sub-paths evaluated for every
+//!   wavelength bin at once.
 
+pub mod allbins;
 pub mod evaluate;
+pub mod geometric;
 pub mod mis;
 pub mod reset;
 pub mod subpath;
@@ -125,6 +131,19 @@ impl Bdpt {
     }
 }
 
+/// Names of the strategy images `s{s}_t{t}` (s camera vertices, t light vertices) for paths of
+/// up to `max_depth` segments, in the order of [`strategy_layer`]; shared with `bdpt-allbins`.
+pub fn strategy_layer_names(max_depth: usize) -> Vec<String> {
+    let mut names = Vec::new();
+    for k in 2..=max_depth + 1 {
+        for s in 1..=k {
+            debug_assert_eq!(strategy_layer(s, k - s), names.len());
+            names.push(format!("s{}_t{}", s, k - s));
+        }
+    }
+    names
+}
+
 impl Scratch {
     pub fn camera(&self) -> &[Vertex] {
         &self.cam
@@ -150,14 +169,7 @@ impl Integrator for Bdpt {
         if !self.strategy_images {
             return Vec::new();
         }
-        let mut names = Vec::new();
-        for k in 2..=self.max_depth as usize + 1 {
-            for s in 1..=k {
-                debug_assert_eq!(strategy_layer(s, k - s), names.len());
-                names.push(format!("s{}_t{}", s, k - s));
-            }
-        }
-        names
+        strategy_layer_names(self.max_depth as usize)
     }
 
     fn sample(

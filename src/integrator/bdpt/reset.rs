@@ -21,7 +21,7 @@ fn material(scene: &Scene, id: u32) -> Option<&Material> {
 #[inline]
 fn copy_camera(path: &mut FullPath, s: usize) {
     for i in 0..s.min(path.k - 1) {
-        path.lambda[i] = path.v[i].lambda_in;
+        path.lambda[i] = path.v[i].data.lambda_in;
         if i >= 1 {
             path.shift[i] = path.v[i].shift;
         }
@@ -33,7 +33,7 @@ fn copy_camera(path: &mut FullPath, s: usize) {
 fn copy_light(path: &mut FullPath, from: usize) {
     let k = path.k;
     for i in from.max(1)..k {
-        path.lambda[i - 1] = path.v[i].lambda_out;
+        path.lambda[i - 1] = path.v[i].data.lambda_out;
         if i <= k - 2 {
             path.shift[i] = path.v[i].shift;
         }

@@ -1,7 +1,7 @@
 //! Directional-only MIS for the all-bins BDPT (Jung 6.4.2): the wavelength pdfs drop out because
 //! no strategy samples wavelengths, so the weights are pbrt-v4's `MISWeight` on area pdfs.
 
-use super::subpath::Vertex;
+use super::Vertex;
 use crate::integrator::MisHeuristic;
 use crate::scene::Scene;
 

@@ -2,9 +2,8 @@
 //! and the spectral factor is an inner product of an importance row with a light spectrum, so a
 //! connection costs O(bins) whatever the path length.
 
-use super::subpath::{Vertex, VertexKind};
-use crate::geometry::Ray;
-use crate::geometry::ray::spawn_ray_to;
+use super::Vertex;
+use crate::integrator::bdpt::geometric::VertexKind;
 use crate::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -143,24 +142,6 @@ pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
     let d2 = d.length_squared();
     let w = d / d2.sqrt();
     a.n.dot(w).abs() * b.n.dot(w).abs() / d2
-}
-
-/// Shadow ray between two surface points.
-#[inline]
-pub fn visible(scene: &Scene, a: &Vertex, b: &Vertex, rays: &mut u64) -> bool {
-    *rays += 1;
-    let (ray, tmax) = spawn_ray_to(a.p, a.n, b.p, b.n);
-    !scene.occluded(&ray, tmax)
-}
-
-/// Shadow ray from a surface point to the pinhole.
-#[inline]
-pub fn visible_to_camera(scene: &Scene, a: &Vertex, cam: Vec3, rays: &mut u64) -> bool {
-    *rays += 1;
-    let o = crate::geometry::ray::offset_origin(a.p, a.n, cam - a.p);
-    let d = cam - o;
-    let len = d.length();
-    !scene.occluded(&Ray::new(o, d / len), len * (1.0 - 1e-4))
 }
 
 /// Pinhole importance for a light-tracing splat: the pixel's W_e = N_pixels / (A_film · cos⁴θ)

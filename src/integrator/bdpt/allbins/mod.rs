@@ -10,17 +10,55 @@
 pub mod binops;
 pub mod evaluate;
 pub mod mis;
-pub mod subpath;
 
+use super::geometric::{
+    self, Step, VertexKind, random_walk, sample_emission, visible, visible_to_camera,
+};
+use super::{strategy_layer, strategy_layer_names};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
 use binops::SupportedOp;
-use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we, visible, visible_to_camera};
+use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we};
 use glam::Vec3;
-use subpath::{Vertex, VertexKind, random_walk, sample_light_origin, sample_light_vertex};
+use std::f32::consts::PI;
+
+/// The payload of an all-bins vertex: the scalar (directional) throughput arriving at it,
+/// products of f_dir·cos/pdf and 1/(pmf·pdf_area) at a light origin. The spectral part lives in
+/// the integrator's bin buffers.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Throughput {
+    pub beta: f32,
+}
+
+/// A geometric sub-path vertex (the BDPT core's) with its scalar throughput.
+pub type Vertex = geometric::Vertex<Throughput>;
+
+/// The pinhole as a path vertex (light tracing connects to it).
+#[inline]
+fn camera_vertex(scene: &Scene) -> Vertex {
+    Vertex {
+        p: scene.camera.origin,
+        n: scene.camera.forward,
+        kind: VertexKind::Camera,
+        material: NONE,
+        light: NONE,
+        pdf_fwd: 1.0,
+        pdf_rev: 0.0,
+        shift: false,
+        data: Throughput { beta: 1.0 },
+    }
+}
+
+/// A light point for next-event estimation, with beta = 1/pdf.
+#[inline]
+fn sample_light_vertex(scene: &Scene, sampler: &mut Sampler) -> Vertex {
+    let mut v: Vertex = geometric::sample_light_vertex(scene, sampler);
+    v.data.beta = 1.0 / v.pdf_fwd;
+    v
+}
 
 /// The integrator with its per-scene precomputation.
 pub struct BdptAllbins {
@@ -37,6 +75,8 @@ pub struct BdptAllbins {
     w_support: Support,
     /// Evaluate only this strategy (s, t), unweighted (for tests of single estimators).
     pub only: Option<(usize, usize)>,
+    /// One image per strategy, named as bdpt's (`s{camera vertices}_t{light vertices}`).
+    strategy_images: bool,
 }
 
 /// Per-thread buffers, reused across samples.
@@ -113,6 +153,7 @@ impl BdptAllbins {
             w,
             w_support,
             only: None,
+            strategy_images: o.strategy_images,
         })
     }
 }
@@ -155,6 +196,13 @@ impl Integrator for BdptAllbins {
         }
     }
 
+    fn aux_layers(&self) -> Vec<String> {
+        if !self.strategy_images {
+            return Vec::new();
+        }
+        strategy_layer_names(self.max_depth)
+    }
+
     fn sample(
         &self,
         scene: &Scene,
@@ -178,67 +226,80 @@ impl Integrator for BdptAllbins {
         // Camera sub-path z0 … : rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
         camera.clear();
         let cam = &scene.camera;
-        let ray = cam.generate_ray(x, y);
-        camera.push(Vertex::camera(ray.o, cam.forward));
+        let (mut z0, ray, pdf_cam) = Vertex::camera(scene, x, y);
+        z0.data.beta = 1.0;
+        camera.push(z0);
         rows[..3 * n].copy_from_slice(&self.w);
         rows_support[0] = self.w_support;
-        let pdf_cam = cam.pdf_dir(ray.d.dot(cam.forward));
         let mut rays = 0u64;
         random_walk(
             scene,
             ray,
             pdf_cam,
-            1.0,
             camera,
             max_depth + 1,
             sampler,
             &mut rays,
-            |verts| {
+            |verts, _| {
                 let j = verts.len() - 1;
+                verts[j].data.beta = 1.0;
                 let m = verts[j].material;
                 // The last vertex (j = max_depth) is only used by s = 0.
                 if m == NONE || j >= max_depth {
-                    return false;
+                    return Step::Stop;
                 }
                 let (prev, cur) = rows.split_at_mut(j * 3 * n);
                 let prev = &prev[(j - 1) * 3 * n..];
                 let cur = &mut cur[..3 * n];
                 rows_support[j] =
                     self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
-                !rows_support[j].is_empty()
+                if rows_support[j].is_empty() {
+                    Step::Stop
+                } else {
+                    Step::Continue
+                }
             },
         );
 
         // Light sub-path y0 … : spec[i] = M_i · spec[i−1], spec[0] = Le.
         light.clear();
         if max_depth >= 2 {
-            let (y0, lray, pdf_dir, beta_out) = sample_light_origin(scene, sampler);
-            spec[..n].copy_from_slice(&self.le[y0.light as usize]);
-            spec_support[0] = self.le_support[y0.light as usize];
+            let mut y0 = sample_light_vertex(scene, sampler);
+            let l = y0.light as usize;
+            let (lray, pdf_dir) = sample_emission(scene, &y0, sampler);
+            // Le·cos/(pdf_pos·pdf_dir) = Le·π/(side·pdf_pos); the spectral Le is in `spec`.
+            let side = if scene.lights[l].two_sided { 0.5 } else { 1.0 };
+            let beta_out = PI / (side * y0.pdf_fwd);
+            y0.data.beta = 1.0 / y0.pdf_fwd;
+            spec[..n].copy_from_slice(&self.le[l]);
+            spec_support[0] = self.le_support[l];
             light.push(y0);
             random_walk(
                 scene,
                 lray,
                 pdf_dir,
-                beta_out,
                 light,
                 max_depth,
                 sampler,
                 &mut rays,
-                |verts| {
+                |verts, _| {
                     let i = verts.len() - 1;
                     let m = verts[i].material;
+                    if m == NONE {
+                        // Black: cannot scatter or connect.
+                        return Step::Discard;
+                    }
+                    verts[i].data.beta = beta_out;
                     let (prev, cur) = spec.split_at_mut(i * n);
                     let cur = &mut cur[..n];
-                    if m == NONE {
-                        cur.fill(0.0);
-                        spec_support[i] = Support::EMPTY;
-                        return false;
-                    }
                     // Stop once the spectrum is zero in every bin (Jung 8.2).
                     spec_support[i] =
                         self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
-                    !spec_support[i].is_empty()
+                    if spec_support[i].is_empty() {
+                        Step::Stop
+                    } else {
+                        Step::Continue
+                    }
                 },
             );
         }
@@ -268,12 +329,16 @@ impl Integrator for BdptAllbins {
                         continue;
                     }
                     let q = &rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
-                    let c = dot3_on(q, &self.le[z.light as usize], on) * z.beta;
+                    let c = dot3_on(q, &self.le[z.light as usize], on) * z.data.beta;
                     if c == Vec3::ZERO {
                         continue;
                     }
                     let w = self.weight(scene, self.mis, light, camera, 0, t, None);
                     value += c * w;
+                    if self.strategy_images {
+                        // bdpt's layer order: (camera vertices, light vertices)
+                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
+                    }
                     sink.stats.contribution(segments);
                 } else if t == 1 {
                     // Light tracing: connect y_{s−1} to the pinhole and splat.
@@ -293,7 +358,7 @@ impl Integrator for BdptAllbins {
                         continue;
                     }
                     let g = cos * yv.n.dot(wdir).abs() / dist2;
-                    let scal = yv.beta * fy * g * pinhole_we(scene, cos);
+                    let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
                     let c = dot3_on(&self.w, &spec[(s - 1) * n..s * n], on) * scal;
                     if c == Vec3::ZERO {
                         continue;
@@ -301,9 +366,14 @@ impl Integrator for BdptAllbins {
                     if !visible_to_camera(scene, yv, cam.origin, &mut rays) {
                         continue;
                     }
-                    let zc = Vertex::camera(cam.origin, cam.forward);
+                    let zc = camera_vertex(scene);
                     let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
                     if sink.splat(px, py, c * w) {
+                        if self.strategy_images {
+                            let pix = (py as u32).min(sink.height - 1) * sink.width
+                                + (px as u32).min(sink.width - 1);
+                            sink.aux(strategy_layer(1, s), pix, c * w);
+                        }
                         sink.stats.contribution(segments);
                     }
                 } else {
@@ -343,7 +413,7 @@ impl Integrator for BdptAllbins {
                     }
                     let fz = f_dir(scene, z, Some(zp), yv.p);
                     let fy = f_dir(scene, yv, yprev, z.p);
-                    let scal = fz * fy * geometry(z, yv) * z.beta * yv.beta;
+                    let scal = fz * fy * geometry(z, yv) * z.data.beta * yv.data.beta;
                     if scal == 0.0 {
                         continue;
                     }
@@ -361,6 +431,10 @@ impl Integrator for BdptAllbins {
                         if s == 1 { Some(yv) } else { None },
                     );
                     value += c * w;
+                    if self.strategy_images {
+                        // bdpt's layer order: (camera vertices, light vertices)
+                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
+                    }
                     sink.stats.contribution(segments);
                 }
             }
