@@ -57,6 +57,8 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub spheres: Vec<Sphere>,
     pub sphere_flip: Vec<bool>,
+    /// Unit geometric normals of the triangles (precomputed: one per hit otherwise).
+    pub triangle_normals: Vec<Vec3>,
     /// Indexed by primitive id (triangles first, then spheres).
     pub prims: Vec<PrimInfo>,
     pub shapes: Vec<ShapeInfo>,
@@ -399,6 +401,11 @@ impl Scene {
             }
         }
         let accel = Accel::build(&b.triangles, &b.spheres);
+        let triangle_normals = b
+            .triangles
+            .iter()
+            .map(|t| t.normal_raw().normalize())
+            .collect();
         let has_fluorescence = materials.iter().any(|m| m.is_fluorescent());
         Ok(Scene {
             file: path.to_path_buf(),
@@ -410,6 +417,7 @@ impl Scene {
             triangles: b.triangles,
             spheres: b.spheres,
             sphere_flip: b.sphere_flip,
+            triangle_normals,
             prims,
             shapes: b.shapes,
             lights: b.lights,
@@ -450,7 +458,7 @@ impl Scene {
     pub fn normal(&self, prim: u32, p: Vec3) -> Vec3 {
         let nt = self.triangles.len();
         if (prim as usize) < nt {
-            self.triangles[prim as usize].normal_raw().normalize()
+            self.triangle_normals[prim as usize]
         } else {
             let k = prim as usize - nt;
             let s = &self.spheres[k];
