@@ -123,31 +123,14 @@ impl Material {
         mode: WavelengthSampling,
     ) -> ShiftSample {
         let p = self.fluorescence_probability_camera(l_out);
-        if p > 0.0 && u[0] < p {
-            let l_in = self.sample_shift_density_camera(l_out, u[1], mode);
-            let pdf = p * self.shift_density_camera(l_out, l_in, mode);
-            let f = self.kernel(l_in, l_out);
-            let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
-            ShiftSample {
-                lambda: l_in,
-                pdf,
-                shifted: true,
-                weight,
-            }
-        } else {
-            let pdf = 1.0 - p;
-            let weight = if pdf > 0.0 {
-                self.diagonal(l_out) / pdf
-            } else {
-                0.0
-            };
-            ShiftSample {
-                lambda: l_out,
-                pdf,
-                shifted: false,
-                weight,
-            }
-        }
+        self.sample_shift(l_out, p, u, |u| {
+            let l_in = self.sample_shift_density_camera(l_out, u, mode);
+            (
+                l_in,
+                self.shift_density_camera(l_out, l_in, mode),
+                self.kernel(l_in, l_out),
+            )
+        })
     }
 
     /// Sample the exitant wavelength at a light-path vertex whose incident wavelength is `l_in`
@@ -160,13 +143,33 @@ impl Material {
         mode: WavelengthSampling,
     ) -> ShiftSample {
         let p = self.fluorescence_probability_light(l_in);
+        self.sample_shift(l_in, p, u, |u| {
+            let l_out = self.sample_shift_density_light(l_in, u, mode);
+            (
+                l_out,
+                self.shift_density_light(l_in, l_out, mode),
+                self.kernel(l_in, l_out),
+            )
+        })
+    }
+
+    /// The two-step choice of Jung 5.3 on either kind of path: with probability `p` a
+    /// fluorescent interaction, whose new wavelength, density and kernel value `shift` returns;
+    /// otherwise keep `l` and weigh the δ part by the diagonal.
+    #[inline(always)]
+    fn sample_shift(
+        &self,
+        l: f32,
+        p: f32,
+        u: [f32; 2],
+        shift: impl FnOnce(f32) -> (f32, f32, f32),
+    ) -> ShiftSample {
         if p > 0.0 && u[0] < p {
-            let l_out = self.sample_shift_density_light(l_in, u[1], mode);
-            let pdf = p * self.shift_density_light(l_in, l_out, mode);
-            let f = self.kernel(l_in, l_out);
+            let (lambda, density, f) = shift(u[1]);
+            let pdf = p * density;
             let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
             ShiftSample {
-                lambda: l_out,
+                lambda,
                 pdf,
                 shifted: true,
                 weight,
@@ -174,12 +177,12 @@ impl Material {
         } else {
             let pdf = 1.0 - p;
             let weight = if pdf > 0.0 {
-                self.diagonal(l_in) / pdf
+                self.diagonal(l) / pdf
             } else {
                 0.0
             };
             ShiftSample {
-                lambda: l_in,
+                lambda: l,
                 pdf,
                 shifted: false,
                 weight,
