@@ -222,32 +222,7 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(de)?;
-        for (i, l) in ls.iter().enumerate() {
-            let col = Palette99::pick(i).to_rgba();
-            let mut band: Vec<(f64, f64)> = l.pts.iter().map(|p| (p.0, p.3)).collect();
-            band.extend(l.pts.iter().rev().map(|p| (p.0, p.2)));
-            c.draw_series(std::iter::once(Polygon::new(band, col.mix(0.2))))
-                .map_err(de)?;
-            c.draw_series(LineSeries::new(
-                l.pts.iter().map(|p| (p.0, p.1)),
-                col.stroke_width(2),
-            ))
-            .map_err(de)?
-            .label(l.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
-            c.draw_series(
-                l.pts
-                    .iter()
-                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
-            )
-            .map_err(de)?;
-        }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(de)?;
+        draw_lines(&mut c, &ls, SeriesLabelPosition::LowerLeft)?;
     } else {
         let pad = ((y1 - y0) * 0.1).max(0.5);
         let mut c = chart
@@ -264,32 +239,7 @@ fn convergence(info: &RunInfo, rows: &[Row], region: &str, time_plot: bool, path
             .y_label_formatter(&|v| format!("{v:.0}"))
             .draw()
             .map_err(de)?;
-        for (i, l) in ls.iter().enumerate() {
-            let col = Palette99::pick(i).to_rgba();
-            let mut band: Vec<(f64, f64)> = l.pts.iter().map(|p| (p.0, p.3)).collect();
-            band.extend(l.pts.iter().rev().map(|p| (p.0, p.2)));
-            c.draw_series(std::iter::once(Polygon::new(band, col.mix(0.2))))
-                .map_err(de)?;
-            c.draw_series(LineSeries::new(
-                l.pts.iter().map(|p| (p.0, p.1)),
-                col.stroke_width(2),
-            ))
-            .map_err(de)?
-            .label(l.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
-            c.draw_series(
-                l.pts
-                    .iter()
-                    .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
-            )
-            .map_err(de)?;
-        }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(de)?;
+        draw_lines(&mut c, &ls, SeriesLabelPosition::UpperLeft)?;
     }
     root.present().map_err(de)?;
     Ok(())
@@ -696,4 +646,44 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
     } else {
         pick(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
     }
+}
+
+/// One line per variant with its repeat spread shaded, markers and a legend.
+fn draw_lines<'a, DB, X, Y>(
+    c: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    ls: &[Line],
+    legend: SeriesLabelPosition,
+) -> Result<(), String>
+where
+    DB: DrawingBackend + 'a,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    for (i, l) in ls.iter().enumerate() {
+        let col = Palette99::pick(i).to_rgba();
+        let mut band: Vec<(f64, f64)> = l.pts.iter().map(|p| (p.0, p.3)).collect();
+        band.extend(l.pts.iter().rev().map(|p| (p.0, p.2)));
+        c.draw_series(std::iter::once(Polygon::new(band, col.mix(0.2))))
+            .map_err(de)?;
+        c.draw_series(LineSeries::new(
+            l.pts.iter().map(|p| (p.0, p.1)),
+            col.stroke_width(2),
+        ))
+        .map_err(de)?
+        .label(l.name.clone())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        c.draw_series(
+            l.pts
+                .iter()
+                .map(|p| Circle::new((p.0, p.1), 3, col.filled())),
+        )
+        .map_err(de)?;
+    }
+    c.configure_series_labels()
+        .position(legend)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(de)?;
+    Ok(())
 }

@@ -74,15 +74,6 @@ impl FluorescentDiffuse {
             warnings,
         ))
     }
-
-    #[inline]
-    fn uniform_density(&self, l: f32) -> f32 {
-        if self.domain.contains(l) {
-            1.0 / self.domain.width()
-        } else {
-            0.0
-        }
-    }
 }
 
 impl Bbrrdf for FluorescentDiffuse {
@@ -122,28 +113,28 @@ impl Bbrrdf for FluorescentDiffuse {
     fn shift_density_light(&self, _l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Importance => self.e_dist.pdf(l_out),
-            WavelengthSampling::Uniform => self.uniform_density(l_out),
+            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_out),
         }
     }
     #[inline]
     fn shift_density_camera(&self, _l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Importance => self.a_dist.pdf(l_in),
-            WavelengthSampling::Uniform => self.uniform_density(l_in),
+            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_in),
         }
     }
     #[inline]
     fn sample_shift_density_light(&self, _l_in: f32, u: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Importance => self.e_dist.sample(u).0,
-            WavelengthSampling::Uniform => self.domain.min + u * self.domain.width(),
+            WavelengthSampling::Uniform => self.domain.sample_uniform(u),
         }
     }
     #[inline]
     fn sample_shift_density_camera(&self, _l_out: f32, u: f32, mode: WavelengthSampling) -> f32 {
         match mode {
             WavelengthSampling::Importance => self.a_dist.sample(u).0,
-            WavelengthSampling::Uniform => self.domain.min + u * self.domain.width(),
+            WavelengthSampling::Uniform => self.domain.sample_uniform(u),
         }
     }
     /// Diagonal plus rank one: t ← (1 − c·a)·r·t + Φ·e·∫ c·a·t dλ' (Jung Alg. 6 line 4, as

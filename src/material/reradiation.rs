@@ -279,13 +279,7 @@ impl Bbrrdf for Reradiation {
     }
     fn shift_density_light(&self, l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
         match mode {
-            WavelengthSampling::Uniform => {
-                if self.domain.contains(l_out) {
-                    1.0 / self.domain.width()
-                } else {
-                    0.0
-                }
-            }
+            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_out),
             WavelengthSampling::Importance => {
                 let Some(i) = self.ex_index(l_in) else {
                     return 0.0;
@@ -300,13 +294,7 @@ impl Bbrrdf for Reradiation {
     }
     fn shift_density_camera(&self, l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
         match mode {
-            WavelengthSampling::Uniform => {
-                if self.domain.contains(l_in) {
-                    1.0 / self.domain.width()
-                } else {
-                    0.0
-                }
-            }
+            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_in),
             WavelengthSampling::Importance => {
                 let Some(o) = self.em_index(l_out) else {
                     return 0.0;
@@ -325,7 +313,7 @@ impl Bbrrdf for Reradiation {
                 let (o, t) = sample_cdf(&self.col_cdf[i], u);
                 self.sample_in_cell(self.em_lo, o, t)
             }
-            _ => self.domain.min + u * self.domain.width(),
+            _ => self.domain.sample_uniform(u),
         }
     }
     fn sample_shift_density_camera(&self, l_out: f32, u: f32, mode: WavelengthSampling) -> f32 {
@@ -334,7 +322,7 @@ impl Bbrrdf for Reradiation {
                 let (i, t) = sample_cdf(&self.row_cdf[o], u);
                 self.sample_in_cell(self.ex_lo, i, t)
             }
-            _ => self.domain.min + u * self.domain.width(),
+            _ => self.domain.sample_uniform(u),
         }
     }
     /// Dense upper-triangle operator: K[o][i] = (1/Δo) ∫_o ∫_i ρ (1 nm midpoint rule, exact for

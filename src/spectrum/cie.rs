@@ -84,10 +84,7 @@ impl Observer {
     #[inline]
     pub fn sample_wavelength(&self, mode: CameraWavelengths, u: f32) -> (f32, f32) {
         match mode {
-            CameraWavelengths::Uniform => (
-                self.range.min + u * self.range.width(),
-                1.0 / self.range.width(),
-            ),
+            CameraWavelengths::Uniform => (self.range.sample_uniform(u), 1.0 / self.range.width()),
             CameraWavelengths::Cmf => self.cmf_dist.sample(u),
         }
     }
@@ -95,13 +92,7 @@ impl Observer {
     #[inline]
     pub fn pdf_wavelength(&self, mode: CameraWavelengths, l: f32) -> f32 {
         match mode {
-            CameraWavelengths::Uniform => {
-                if self.range.contains(l) {
-                    1.0 / self.range.width()
-                } else {
-                    0.0
-                }
-            }
+            CameraWavelengths::Uniform => self.range.uniform_pdf(l),
             CameraWavelengths::Cmf => self.cmf_dist.pdf(l),
         }
     }

@@ -31,6 +31,20 @@ impl Domain {
     pub fn contains(&self, l: f32) -> bool {
         l >= self.min && l <= self.max
     }
+    /// Density of the uniform distribution over the domain at `l` (zero outside).
+    #[inline]
+    pub fn uniform_pdf(&self, l: f32) -> f32 {
+        if self.contains(l) {
+            1.0 / self.width()
+        } else {
+            0.0
+        }
+    }
+    /// A uniform wavelength from `u` in [0, 1).
+    #[inline]
+    pub fn sample_uniform(&self, u: f32) -> f32 {
+        self.min + u * self.width()
+    }
     pub fn intersect(&self, o: &Domain) -> Domain {
         Domain {
             min: self.min.max(o.min),

@@ -88,13 +88,7 @@ pub fn camera_subpath(
 pub fn light_lambda_pdf(scene: &Scene, light: usize, l: f32, mode: LightWavelengths) -> f32 {
     match mode {
         LightWavelengths::Emission => scene.lights[light].pdf_wavelength(l),
-        LightWavelengths::Uniform => {
-            if scene.domain.contains(l) {
-                1.0 / scene.domain.width()
-            } else {
-                0.0
-            }
-        }
+        LightWavelengths::Uniform => scene.domain.uniform_pdf(l),
     }
 }
 
@@ -108,10 +102,10 @@ pub fn sample_light_lambda(
 ) -> (f32, f32) {
     match mode {
         LightWavelengths::Emission => scene.lights[light].sample_wavelength(u),
-        LightWavelengths::Uniform => (
-            scene.domain.min + u * scene.domain.width(),
-            1.0 / scene.domain.width(),
-        ),
+        LightWavelengths::Uniform => {
+            let l = scene.domain.sample_uniform(u);
+            (l, scene.domain.uniform_pdf(l))
+        }
     }
 }
 
