@@ -8,3 +8,4 @@ pub mod integrator;
 pub mod material;
 pub mod scene;
 pub mod spectrum;
+pub mod transport;

@@ -11,6 +11,7 @@ pub mod render;
 pub use render::{RenderOutput, RenderSettings, render};
 
 use crate::material::WavelengthSampling;
+pub use crate::scene::LightWavelengths;
 use crate::scene::Scene;
 use crate::spectrum::cie::CameraWavelengths;
 use glam::Vec3;
@@ -52,17 +53,6 @@ impl IntegratorKind {
             IntegratorKind::BdptAllbins,
         ]
     }
-}
-
-/// How light sub-paths choose their first wavelength (Jung 6.2.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LightWavelengths {
-    /// Option 4: ∝ the chosen light's emission spectrum.
-    #[default]
-    Emission,
-    /// Option 1: uniform over the domain.
-    Uniform,
 }
 
 /// MIS heuristic.

@@ -1,7 +1,7 @@
 //! The diffuse, partly fluorescent BBRRDF of Jung ch. 5: reflectance r, absorption a, emission e,
 //! quantum yield Φ and concentration c.
 
-use super::{Bbrrdf, BinOperator, WavelengthSampling, average_fn};
+use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
 use crate::spectrum::{BinGrid, Distribution1D, Domain, Spectrum};
 
 #[derive(Clone, Debug)]
@@ -109,32 +109,29 @@ impl Bbrrdf for FluorescentDiffuse {
         }
         fl / (fl + self.r.eval(l_out) * (1.0 - self.c * self.a.eval(l_out)))
     }
+    /// Emission-spectrum sampling on light paths, absorption-spectrum sampling on camera paths
+    /// (Jung 5.3.2).
     #[inline]
-    fn shift_density_light(&self, _l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Importance => self.e_dist.pdf(l_out),
-            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_out),
+    fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
+        let (lambda, density) = match side {
+            PathSide::Light => self.e_dist.sample(u[1]),
+            PathSide::Camera => self.a_dist.sample(u[1]),
+        };
+        let kernel = match side {
+            PathSide::Light => self.kernel(l, lambda),
+            PathSide::Camera => self.kernel(lambda, l),
+        };
+        ShiftDraw {
+            lambda,
+            density,
+            kernel,
         }
     }
     #[inline]
-    fn shift_density_camera(&self, _l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Importance => self.a_dist.pdf(l_in),
-            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_in),
-        }
-    }
-    #[inline]
-    fn sample_shift_density_light(&self, _l_in: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Importance => self.e_dist.sample(u).0,
-            WavelengthSampling::Uniform => self.domain.sample_uniform(u),
-        }
-    }
-    #[inline]
-    fn sample_shift_density_camera(&self, _l_out: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Importance => self.a_dist.sample(u).0,
-            WavelengthSampling::Uniform => self.domain.sample_uniform(u),
+    fn shift_density(&self, _l: f32, l_new: f32, side: PathSide) -> f32 {
+        match side {
+            PathSide::Light => self.e_dist.pdf(l_new),
+            PathSide::Camera => self.a_dist.pdf(l_new),
         }
     }
     /// Diagonal plus rank one: t ← (1 − c·a)·r·t + Φ·e·∫ c·a·t dλ' (Jung Alg. 6 line 4, as
@@ -157,9 +154,7 @@ impl Bbrrdf for FluorescentDiffuse {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{Material, WavelengthSampling::*};
     use crate::spectrum::DEFAULT_DOMAIN;
-    use rand::{Rng, SeedableRng};
 
     fn model(r: f32, c: f32, phi: f32) -> FluorescentDiffuse {
         FluorescentDiffuse::new(
@@ -219,75 +214,6 @@ mod tests {
         let p = model(0.0, 1.0, 1.0);
         assert_eq!(p.fluorescence_probability_light(350.0), 1.0);
         assert_eq!(p.fluorescence_probability_camera(520.0), 1.0);
-    }
-
-    #[test]
-    fn wavelength_sampling_histogram_matches_pdf() {
-        let m = Material::Fluorescent(
-            FluorescentDiffuse::new(
-                Spectrum::Constant(0.3),
-                Spectrum::gaussian_fwhm(400.0, 40.0, 1.0),
-                Spectrum::gaussian_fwhm(520.0, 30.0, 1.0),
-                0.9,
-                0.7,
-                DEFAULT_DOMAIN,
-            )
-            .unwrap()
-            .0,
-        );
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
-        for mode in [Importance, Uniform] {
-            for camera in [true, false] {
-                let l0 = if camera { 520.0 } else { 400.0 };
-                let n = 200_000;
-                let mut hist = [0u32; 50];
-                let mut stays = 0;
-                for _ in 0..n {
-                    let s = if camera {
-                        m.sample_wavelength_camera(l0, [rng.random(), rng.random()], mode)
-                    } else {
-                        m.sample_wavelength_light(l0, [rng.random(), rng.random()], mode)
-                    };
-                    let pdf = if camera {
-                        m.pdf_wavelength_camera(l0, s.lambda, !s.shifted, mode)
-                    } else {
-                        m.pdf_wavelength_light(l0, s.lambda, !s.shifted, mode)
-                    };
-                    assert!((pdf - s.pdf).abs() <= 1e-5 * pdf.max(1e-6));
-                    if s.shifted {
-                        hist[(((s.lambda - 280.0) / 10.0) as usize).min(49)] += 1;
-                    } else {
-                        stays += 1;
-                    }
-                }
-                let p_shift = if camera {
-                    m.fluorescence_probability_camera(l0)
-                } else {
-                    m.fluorescence_probability_light(l0)
-                };
-                let exp_stay = (1.0 - p_shift) * n as f32;
-                assert!((stays as f32 - exp_stay).abs() < 5.0 * exp_stay.max(1.0).sqrt() + 1.0);
-                for (b, &h) in hist.iter().enumerate() {
-                    let a = 280.0 + 10.0 * b as f32;
-                    let mass: f32 = (0..100)
-                        .map(|k| {
-                            let l = a + 0.1 * (k as f32 + 0.5);
-                            if camera {
-                                m.pdf_wavelength_camera(l0, l, false, mode)
-                            } else {
-                                m.pdf_wavelength_light(l0, l, false, mode)
-                            }
-                        })
-                        .sum::<f32>()
-                        * 0.1;
-                    let e = mass * n as f32;
-                    assert!(
-                        (h as f32 - e).abs() < 5.0 * e.max(1.0).sqrt() + 2.0,
-                        "bin {b}: {h} vs {e}"
-                    );
-                }
-            }
-        }
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! Lambertian reflector: a reflectance spectrum, no wavelength shifting.
 
-use super::{Bbrrdf, BinOperator, WavelengthSampling};
+use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw};
 use crate::spectrum::{BinGrid, Spectrum};
 
 #[derive(Clone, Debug)]
@@ -25,17 +25,15 @@ impl Bbrrdf for Lambert {
     fn fluorescence_probability_camera(&self, _: f32) -> f32 {
         0.0
     }
-    fn shift_density_light(&self, _: f32, _: f32, _: WavelengthSampling) -> f32 {
+    fn sample_shift(&self, l: f32, _: [f32; 2], _: PathSide) -> ShiftDraw {
+        ShiftDraw {
+            lambda: l,
+            density: 0.0,
+            kernel: 0.0,
+        }
+    }
+    fn shift_density(&self, _: f32, _: f32, _: PathSide) -> f32 {
         0.0
-    }
-    fn shift_density_camera(&self, _: f32, _: f32, _: WavelengthSampling) -> f32 {
-        0.0
-    }
-    fn sample_shift_density_light(&self, l_in: f32, _: f32, _: WavelengthSampling) -> f32 {
-        l_in
-    }
-    fn sample_shift_density_camera(&self, l_out: f32, _: f32, _: WavelengthSampling) -> f32 {
-        l_out
     }
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         BinOperator::Diagonal {

@@ -3,7 +3,11 @@
 //! A material's reflectance is split into a wavelength-preserving part (the diagonal of the
 //! reradiation matrix, a δ(λin − λout) term) and a wavelength-shifting kernel ρ(λin → λout)
 //! per nm. The directional part is a separate lobe, so a path's geometry never depends on its
-//! wavelengths. Every model here is perfectly diffuse and two-sided: f = spectral · 1/π.
+//! wavelengths (`transport::Scattering`). Every model here is diffuse.
+//!
+//! Sampling is one-shot: [`Material::sample`] makes Jung's two-step choice (fluorescent or not,
+//! then the new wavelength) and returns the wavelength, its pdf and the spectral value together;
+//! [`Material::pdf`] and [`Material::eval`] match it.
 
 pub mod binop;
 pub mod fluorescent;
@@ -15,7 +19,7 @@ pub use fluorescent::FluorescentDiffuse;
 pub use lambert::Lambert;
 pub use reradiation::Reradiation;
 
-use crate::spectrum::BinGrid;
+use crate::spectrum::{BinGrid, Domain, Lanes};
 
 /// How the new wavelength is chosen at a fluorescent vertex (Jung 7.1.2).
 #[derive(
@@ -38,16 +42,63 @@ pub enum WavelengthSampling {
     Uniform,
 }
 
-/// A sampled wavelength at a vertex.
+/// Which sub-path arrives at a vertex (Jung 5.3). A camera path knows the exitant wavelength
+/// λout and samples the incident λin; a light path knows λin and samples λout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathSide {
+    Camera,
+    Light,
+}
+
+/// How an integrator chooses new wavelengths: the option and the domain that `uniform` covers.
+/// The uniform mode is implemented here, once, for every material.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShiftSample {
-    /// The new wavelength (equal to the old one when `shifted` is false).
+pub struct ShiftSampling {
+    pub mode: WavelengthSampling,
+    pub domain: Domain,
+}
+
+impl ShiftSampling {
+    pub fn new(mode: WavelengthSampling, domain: Domain) -> Self {
+        ShiftSampling { mode, domain }
+    }
+}
+
+/// A material's own importance sample of the new wavelength of a fluorescent interaction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShiftDraw {
+    /// The new wavelength (λout on a light path, λin on a camera path).
     pub lambda: f32,
-    /// Probability of this outcome: `1 − P` (discrete) when not shifted, `P · density` when shifted.
+    /// Its density per nm, given that a shift happens.
+    pub density: f32,
+    /// The kernel ρ(λin → λout) of the pair.
+    pub kernel: f32,
+}
+
+/// A wavelength chosen at a vertex by the two-step choice of Jung 5.3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WavelengthSample {
+    /// The new wavelength (equal to the old one when `fluorescent` is false).
+    pub lambda: f32,
+    /// Probability of this outcome: `1 − P` (discrete) when not fluorescent, `P · density` when
+    /// fluorescent.
     pub pdf: f32,
-    pub shifted: bool,
-    /// Spectral part of f divided by `pdf` (the diagonal coefficient, or the kernel value).
-    pub weight: f32,
+    /// The spectral part of f for the pair: the diagonal, or the kernel value.
+    pub value: f32,
+    /// Whether the interaction shifted the wavelength.
+    pub fluorescent: bool,
+}
+
+impl WavelengthSample {
+    /// `value / pdf`, zero when the pdf is.
+    #[inline]
+    pub fn weight(&self) -> f32 {
+        if self.pdf > 0.0 {
+            self.value / self.pdf
+        } else {
+            0.0
+        }
+    }
 }
 
 /// The bispectral bidirectional reflectance and reradiation function (BBRRDF), spectral part.
@@ -62,16 +113,23 @@ pub trait Bbrrdf {
     fn fluorescence_probability_light(&self, l_in: f32) -> f32;
     /// P_c(fluorescent interaction | λout) (Jung eq. 5.12).
     fn fluorescence_probability_camera(&self, l_out: f32) -> f32;
-    /// Density of the new λout given a fluorescent interaction on a light path.
-    fn shift_density_light(&self, l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32;
-    /// Density of the new λin given a fluorescent interaction on a camera path.
-    fn shift_density_camera(&self, l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32;
-    /// Sample λout from a distribution of `shift_density_light` (given a shift happens).
-    fn sample_shift_density_light(&self, l_in: f32, u: f32, mode: WavelengthSampling) -> f32;
-    /// Sample λin from a distribution of `shift_density_camera` (given a shift happens).
-    fn sample_shift_density_camera(&self, l_out: f32, u: f32, mode: WavelengthSampling) -> f32;
+    /// Importance-sample the new wavelength of a fluorescent interaction given the known one,
+    /// `l` (emission side on light paths, absorption side on camera paths), from two uniform
+    /// numbers; one lookup gives the wavelength, its density and the kernel value.
+    fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw;
+    /// Density of [`Bbrrdf::sample_shift`] choosing `l_new` given `l`.
+    fn shift_density(&self, l: f32, l_new: f32, side: PathSide) -> f32;
     /// The bin operator for the all-bins evaluator (light transport direction).
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator;
+
+    /// P_l or P_c, by the side of the path.
+    #[inline]
+    fn fluorescence_probability(&self, l: f32, side: PathSide) -> f32 {
+        match side {
+            PathSide::Light => self.fluorescence_probability_light(l),
+            PathSide::Camera => self.fluorescence_probability_camera(l),
+        }
+    }
 }
 
 /// A material of the scene (enum dispatch keeps the hot path free of virtual calls).
@@ -92,137 +150,100 @@ macro_rules! dispatch {
     };
 }
 
-impl Material {
-    /// The directional factor of the diffuse lobe, 1/π.
-    pub const DIFFUSE: f32 = std::f32::consts::FRAC_1_PI;
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
+impl Material {
     /// Whether directional sampling or scattering depends on wavelength (never, for these
     /// diffuse models). The reset algorithms and the all-bins evaluator require `false`.
     pub fn wavelength_dependent_directions(&self) -> bool {
         false
     }
 
-    /// Spectral part of f(λin → λout) for a continuous (non-δ) pair of wavelengths, including
-    /// the diagonal when `same` is true (the δ term's coefficient).
+    /// Spectral part of f(λin → λout): the diagonal's coefficient for the δ (non-fluorescent)
+    /// event, the kernel for a fluorescent one.
     #[inline]
-    pub fn spectral(&self, l_in: f32, l_out: f32, same: bool) -> f32 {
-        if same {
-            self.diagonal(l_in)
-        } else {
+    pub fn eval(&self, l_in: f32, l_out: f32, fluorescent: bool) -> f32 {
+        if fluorescent {
             self.kernel(l_in, l_out)
+        } else {
+            self.diagonal(l_in)
         }
     }
 
-    /// Sample the incident wavelength at a camera-path vertex whose exitant wavelength is
-    /// `l_out` (Jung 5.3: decide with P_c, then sample the absorption side).
+    /// Choose the wavelength on the other side of a vertex whose known wavelength is `l`
+    /// (Jung 5.3): a fluorescent interaction with probability P (eq. 5.10 on light paths, 5.12
+    /// on camera paths) using `u[0]`, then the new wavelength from `u[0]` rescaled and `u[1]`;
+    /// otherwise keep `l`, weighed by the diagonal.
     #[inline]
-    pub fn sample_wavelength_camera(
-        &self,
-        l_out: f32,
-        u: [f32; 2],
-        mode: WavelengthSampling,
-    ) -> ShiftSample {
-        let p = self.fluorescence_probability_camera(l_out);
-        self.sample_shift(l_out, p, u, |u| {
-            let l_in = self.sample_shift_density_camera(l_out, u, mode);
-            (
-                l_in,
-                self.shift_density_camera(l_out, l_in, mode),
-                self.kernel(l_in, l_out),
-            )
-        })
-    }
-
-    /// Sample the exitant wavelength at a light-path vertex whose incident wavelength is `l_in`
-    /// (Jung 5.3: decide with P_l, then sample the emission side).
-    #[inline]
-    pub fn sample_wavelength_light(
-        &self,
-        l_in: f32,
-        u: [f32; 2],
-        mode: WavelengthSampling,
-    ) -> ShiftSample {
-        let p = self.fluorescence_probability_light(l_in);
-        self.sample_shift(l_in, p, u, |u| {
-            let l_out = self.sample_shift_density_light(l_in, u, mode);
-            (
-                l_out,
-                self.shift_density_light(l_in, l_out, mode),
-                self.kernel(l_in, l_out),
-            )
-        })
-    }
-
-    /// The two-step choice of Jung 5.3 on either kind of path: with probability `p` a
-    /// fluorescent interaction, whose new wavelength, density and kernel value `shift` returns;
-    /// otherwise keep `l` and weigh the δ part by the diagonal.
-    #[inline(always)]
-    fn sample_shift(
+    pub fn sample(
         &self,
         l: f32,
-        p: f32,
         u: [f32; 2],
-        shift: impl FnOnce(f32) -> (f32, f32, f32),
-    ) -> ShiftSample {
+        side: PathSide,
+        s: ShiftSampling,
+    ) -> WavelengthSample {
+        let p = self.fluorescence_probability(l, side);
         if p > 0.0 && u[0] < p {
-            let (lambda, density, f) = shift(u[1]);
-            let pdf = p * density;
-            let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
-            ShiftSample {
-                lambda,
-                pdf,
-                shifted: true,
-                weight,
-            }
-        } else {
-            let pdf = 1.0 - p;
-            let weight = if pdf > 0.0 {
-                self.diagonal(l) / pdf
-            } else {
-                0.0
+            let u0 = (u[0] / p).min(ONE_MINUS_EPSILON);
+            let d = match s.mode {
+                WavelengthSampling::Importance => self.sample_shift(l, [u0, u[1]], side),
+                WavelengthSampling::Uniform => {
+                    let x = s.domain.sample_uniform(u[1]);
+                    let kernel = match side {
+                        PathSide::Camera => self.kernel(x, l),
+                        PathSide::Light => self.kernel(l, x),
+                    };
+                    ShiftDraw {
+                        lambda: x,
+                        density: s.domain.uniform_pdf(x),
+                        kernel,
+                    }
+                }
             };
-            ShiftSample {
+            WavelengthSample {
+                lambda: d.lambda,
+                pdf: p * d.density,
+                value: d.kernel,
+                fluorescent: true,
+            }
+        } else {
+            WavelengthSample {
                 lambda: l,
-                pdf,
-                shifted: false,
-                weight,
+                pdf: 1.0 - p,
+                value: self.diagonal(l),
+                fluorescent: false,
             }
         }
     }
 
-    /// Probability (discrete or density) that a camera path at this vertex chooses `l_in` given
-    /// `l_out`; `same` tells whether the pair is the δ (no-shift) event.
+    /// Probability (discrete, or density per nm when `fluorescent`) that [`Material::sample`]
+    /// chooses `l_new` given `l`.
     #[inline]
-    pub fn pdf_wavelength_camera(
+    pub fn pdf(
         &self,
-        l_out: f32,
-        l_in: f32,
-        same: bool,
-        mode: WavelengthSampling,
+        l: f32,
+        l_new: f32,
+        fluorescent: bool,
+        side: PathSide,
+        s: ShiftSampling,
     ) -> f32 {
-        let p = self.fluorescence_probability_camera(l_out);
-        if same {
-            1.0 - p
-        } else {
-            p * self.shift_density_camera(l_out, l_in, mode)
+        let p = self.fluorescence_probability(l, side);
+        if !fluorescent {
+            return 1.0 - p;
+        }
+        p * match s.mode {
+            WavelengthSampling::Importance => self.shift_density(l, l_new, side),
+            WavelengthSampling::Uniform => s.domain.uniform_pdf(l_new),
         }
     }
 
-    /// Probability (discrete or density) that a light path at this vertex chooses `l_out` given
-    /// `l_in`.
-    #[inline]
-    pub fn pdf_wavelength_light(
-        &self,
-        l_in: f32,
-        l_out: f32,
-        same: bool,
-        mode: WavelengthSampling,
-    ) -> f32 {
-        let p = self.fluorescence_probability_light(l_in);
-        if same {
-            1.0 - p
-        } else {
-            p * self.shift_density_light(l_in, l_out, mode)
+    /// The diagonal (wavelength-preserving) coefficient at every lane.
+    #[inline(always)]
+    pub fn diagonal_lanes<L: Lanes>(&self, n: usize, lambda: L) -> L {
+        match self {
+            Material::Lambert(l) => l.reflectance.eval_lanes(n, lambda),
+            _ => L::from_fn(n, |j| self.diagonal(lambda.lane(j))),
         }
     }
 }
@@ -249,20 +270,12 @@ impl Bbrrdf for Material {
         dispatch!(self, m => m.fluorescence_probability_camera(l_out))
     }
     #[inline]
-    fn shift_density_light(&self, l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
-        dispatch!(self, m => m.shift_density_light(l_in, l_out, mode))
+    fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
+        dispatch!(self, m => m.sample_shift(l, u, side))
     }
     #[inline]
-    fn shift_density_camera(&self, l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
-        dispatch!(self, m => m.shift_density_camera(l_out, l_in, mode))
-    }
-    #[inline]
-    fn sample_shift_density_light(&self, l_in: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        dispatch!(self, m => m.sample_shift_density_light(l_in, u, mode))
-    }
-    #[inline]
-    fn sample_shift_density_camera(&self, l_out: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        dispatch!(self, m => m.sample_shift_density_camera(l_out, u, mode))
+    fn shift_density(&self, l: f32, l_new: f32, side: PathSide) -> f32 {
+        dispatch!(self, m => m.shift_density(l, l_new, side))
     }
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         dispatch!(self, m => m.bin_operator(grid))
@@ -277,4 +290,102 @@ pub(crate) fn average_fn(f: impl Fn(f32) -> f32, a: f32, b: f32) -> f32 {
         .map(|i| f(a + (i as f32 + 0.5) * h) as f64)
         .sum::<f64>() as f32
         / n as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectrum::{DEFAULT_DOMAIN, Spectrum};
+    use rand::{Rng, SeedableRng};
+
+    fn materials() -> Vec<(&'static str, Material)> {
+        let fl = FluorescentDiffuse::new(
+            Spectrum::Constant(0.3),
+            Spectrum::gaussian_fwhm(400.0, 40.0, 1.0),
+            Spectrum::gaussian_fwhm(520.0, 30.0, 1.0),
+            0.9,
+            0.7,
+            DEFAULT_DOMAIN,
+        )
+        .unwrap()
+        .0;
+        let golf = include_str!("../../data/bispectral/GOLFYE.BFC");
+        vec![
+            (
+                "lambert",
+                Material::Lambert(Lambert {
+                    reflectance: Spectrum::Constant(0.6),
+                }),
+            ),
+            ("fluorescent-diffuse", Material::Fluorescent(fl)),
+            (
+                "reradiation",
+                Material::Reradiation(Reradiation::parse_bfc(golf, DEFAULT_DOMAIN).unwrap()),
+            ),
+        ]
+    }
+
+    /// The one-shot sampler reports the pdf that `pdf` gives for its outcome and the value that
+    /// `eval` gives; the no-shift frequency is 1 − P and the histogram of shifted wavelengths
+    /// matches the density (10 nm bins, 5σ); the density integrates to 1.
+    #[test]
+    fn one_shot_sampler_matches_its_pdf() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        for (name, m) in materials() {
+            for mode in [WavelengthSampling::Importance, WavelengthSampling::Uniform] {
+                let s = ShiftSampling::new(mode, DEFAULT_DOMAIN);
+                for (side, l0) in [(PathSide::Camera, 560.0), (PathSide::Light, 360.0)] {
+                    let n = 200_000;
+                    let mut hist = [0u32; 50];
+                    let mut stays = 0;
+                    for _ in 0..n {
+                        let w = m.sample(l0, [rng.random(), rng.random()], side, s);
+                        let pdf = m.pdf(l0, w.lambda, w.fluorescent, side, s);
+                        assert!((pdf - w.pdf).abs() <= 1e-6 * pdf.max(1e-6), "{name}");
+                        let (li, lo) = match side {
+                            PathSide::Camera => (w.lambda, l0),
+                            PathSide::Light => (l0, w.lambda),
+                        };
+                        assert_eq!(w.value, m.eval(li, lo, w.fluorescent), "{name}");
+                        if w.fluorescent {
+                            hist[(((w.lambda - 280.0) / 10.0) as usize).min(49)] += 1;
+                        } else {
+                            assert_eq!(w.lambda, l0);
+                            stays += 1;
+                        }
+                    }
+                    let p = m.fluorescence_probability(l0, side);
+                    let exp_stay = (1.0 - p) * n as f32;
+                    assert!(
+                        (stays as f32 - exp_stay).abs() < 5.0 * exp_stay.max(1.0).sqrt() + 1.0,
+                        "{name} {mode:?} {side:?}: {stays} stays, want {exp_stay}"
+                    );
+                    let density = |l: f32| m.pdf(l0, l, true, side, s);
+                    let total: f32 = (0..5000)
+                        .map(|k| density(280.0 + 0.1 * (k as f32 + 0.5)))
+                        .sum::<f32>()
+                        * 0.1;
+                    if p > 0.0 {
+                        assert!(
+                            (total / p - 1.0).abs() < 2e-3,
+                            "{name} {mode:?} {side:?}: ∫ = {}",
+                            total / p
+                        );
+                    }
+                    for (b, &h) in hist.iter().enumerate() {
+                        let a = 280.0 + 10.0 * b as f32;
+                        let mass: f32 = (0..100)
+                            .map(|k| density(a + 0.1 * (k as f32 + 0.5)))
+                            .sum::<f32>()
+                            * 0.1;
+                        let e = mass * n as f32;
+                        assert!(
+                            (h as f32 - e).abs() < 5.0 * e.max(1.0).sqrt() + 2.0,
+                            "{name} {mode:?} {side:?} bin {b}: {h} vs {e}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

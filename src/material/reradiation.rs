@@ -8,7 +8,7 @@
 //! the diagonal (λo < λi) and every negative value are set to zero. Reflectance is not measured
 //! below the first emission wavelength (380 nm) and is taken as zero there.
 
-use super::{Bbrrdf, BinOperator, WavelengthSampling, average_fn};
+use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
 use crate::spectrum::{BinGrid, Domain};
 
 #[derive(Clone, Debug)]
@@ -277,53 +277,51 @@ impl Bbrrdf for Reradiation {
             g / (g + self.diagonal(l_out))
         }
     }
-    fn shift_density_light(&self, l_in: f32, l_out: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_out),
-            WavelengthSampling::Importance => {
-                let Some(i) = self.ex_index(l_in) else {
-                    return 0.0;
-                };
-                let t = self.col_total[i];
-                if t <= 0.0 {
-                    return 0.0;
-                }
-                self.kernel(l_in, l_out) / t
-            }
+    /// Sample the measured kernel's column (light paths: λout given λin) or row (camera paths:
+    /// λin given λout) by its CDF, uniformly inside the chosen cell.
+    fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
+        let none = ShiftDraw {
+            lambda: l,
+            density: 0.0,
+            kernel: 0.0,
+        };
+        let (cdf, total, lo) = match side {
+            PathSide::Light => match self.ex_index(l) {
+                Some(i) => (&self.col_cdf[i], self.col_total[i], self.em_lo),
+                None => return none,
+            },
+            PathSide::Camera => match self.em_index(l) {
+                Some(o) => (&self.row_cdf[o], self.row_total[o], self.ex_lo),
+                None => return none,
+            },
+        };
+        if total <= 0.0 {
+            return none;
+        }
+        let (k, t) = sample_cdf(cdf, u[1]);
+        let lambda = self.sample_in_cell(lo, k, t);
+        let kernel = match side {
+            PathSide::Light => self.kernel(l, lambda),
+            PathSide::Camera => self.kernel(lambda, l),
+        };
+        ShiftDraw {
+            lambda,
+            density: kernel / total,
+            kernel,
         }
     }
-    fn shift_density_camera(&self, l_out: f32, l_in: f32, mode: WavelengthSampling) -> f32 {
-        match mode {
-            WavelengthSampling::Uniform => self.domain.uniform_pdf(l_in),
-            WavelengthSampling::Importance => {
-                let Some(o) = self.em_index(l_out) else {
-                    return 0.0;
-                };
-                let t = self.row_total[o];
-                if t <= 0.0 {
-                    return 0.0;
-                }
-                self.kernel(l_in, l_out) / t
-            }
-        }
-    }
-    fn sample_shift_density_light(&self, l_in: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        match (mode, self.ex_index(l_in)) {
-            (WavelengthSampling::Importance, Some(i)) if self.col_total[i] > 0.0 => {
-                let (o, t) = sample_cdf(&self.col_cdf[i], u);
-                self.sample_in_cell(self.em_lo, o, t)
-            }
-            _ => self.domain.sample_uniform(u),
-        }
-    }
-    fn sample_shift_density_camera(&self, l_out: f32, u: f32, mode: WavelengthSampling) -> f32 {
-        match (mode, self.em_index(l_out)) {
-            (WavelengthSampling::Importance, Some(o)) if self.row_total[o] > 0.0 => {
-                let (i, t) = sample_cdf(&self.row_cdf[o], u);
-                self.sample_in_cell(self.ex_lo, i, t)
-            }
-            _ => self.domain.sample_uniform(u),
-        }
+    fn shift_density(&self, l: f32, l_new: f32, side: PathSide) -> f32 {
+        let (total, kernel) = match side {
+            PathSide::Light => match self.ex_index(l) {
+                Some(i) => (self.col_total[i], self.kernel(l, l_new)),
+                None => return 0.0,
+            },
+            PathSide::Camera => match self.em_index(l) {
+                Some(o) => (self.row_total[o], self.kernel(l_new, l)),
+                None => return 0.0,
+            },
+        };
+        if total <= 0.0 { 0.0 } else { kernel / total }
     }
     /// Dense upper-triangle operator: K[o][i] = (1/Δo) ∫_o ∫_i ρ (1 nm midpoint rule, exact for
     /// the piecewise-constant cells on an integer-nm grid).
@@ -395,34 +393,19 @@ mod tests {
         let m = Reradiation::parse_bfc(GOLFYE, DEFAULT_DOMAIN).unwrap();
         for l in [330.0, 400.0, 450.0] {
             let s: f32 = (0..5000)
-                .map(|k| {
-                    m.shift_density_light(
-                        l,
-                        280.0 + 0.1 * (k as f32 + 0.5),
-                        WavelengthSampling::Importance,
-                    )
-                })
+                .map(|k| m.shift_density(l, 280.0 + 0.1 * (k as f32 + 0.5), PathSide::Light))
                 .sum::<f32>()
                 * 0.1;
             assert!((s - 1.0).abs() < 1e-3, "{l}: {s}");
             for j in 0..200 {
-                let lo = m.sample_shift_density_light(
-                    l,
-                    (j as f32 + 0.5) / 200.0,
-                    WavelengthSampling::Importance,
-                );
-                assert!(m.shift_density_light(l, lo, WavelengthSampling::Importance) > 0.0);
+                let d = m.sample_shift(l, [0.5, (j as f32 + 0.5) / 200.0], PathSide::Light);
+                assert!(d.density > 0.0);
+                assert_eq!(d.density, m.shift_density(l, d.lambda, PathSide::Light));
             }
         }
         for l in [520.0, 600.0] {
             let s: f32 = (0..5000)
-                .map(|k| {
-                    m.shift_density_camera(
-                        l,
-                        280.0 + 0.1 * (k as f32 + 0.5),
-                        WavelengthSampling::Importance,
-                    )
-                })
+                .map(|k| m.shift_density(l, 280.0 + 0.1 * (k as f32 + 0.5), PathSide::Camera))
                 .sum::<f32>()
                 * 0.1;
             assert!((s - 1.0).abs() < 1e-3, "{l}: {s}");

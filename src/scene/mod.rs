@@ -5,7 +5,7 @@ pub mod lights;
 pub mod spectra;
 
 pub use error::InputError;
-pub use lights::{AreaLight, LightPoint, LightShape};
+pub use lights::{AreaLight, LightPoint, LightSet, LightShape, LightWavelengths};
 
 use crate::geometry::{Accel, Camera, Ray, Sphere, Triangle};
 use crate::material::{Bbrrdf, FluorescentDiffuse, Lambert, Material, Reradiation};
@@ -62,10 +62,8 @@ pub struct Scene {
     /// Indexed by primitive id (triangles first, then spheres).
     pub prims: Vec<PrimInfo>,
     pub shapes: Vec<ShapeInfo>,
-    pub lights: Vec<AreaLight>,
-    /// Light selection ∝ power.
-    light_cdf: Vec<f32>,
-    light_pmf: Vec<f32>,
+    /// The lights, chosen ∝ power, and their sampling operations.
+    pub lights: LightSet,
     pub accel: Accel,
     pub has_fluorescence: bool,
     pub has_media: bool,
@@ -380,26 +378,8 @@ impl Scene {
                 "every light emits zero power over the wavelength domain".into(),
             ));
         }
-        let total: f64 = b.lights.iter().map(|l| l.power).sum();
-        let mut acc = 0.0;
-        let light_pmf: Vec<f32> = b.lights.iter().map(|l| (l.power / total) as f32).collect();
-        let light_cdf: Vec<f32> = b
-            .lights
-            .iter()
-            .map(|l| {
-                acc += l.power / total;
-                acc as f32
-            })
-            .collect();
-        let n_tris = b.triangles.len() as u32;
         let mut prims = b.tri_info;
         prims.extend(b.sphere_info);
-        // Sphere light prims were recorded relative to the sphere list: shift them.
-        for l in &mut b.lights {
-            if let LightShape::Sphere { prim, .. } = &mut l.shape {
-                *prim += n_tris;
-            }
-        }
         let accel = Accel::build(&b.triangles, &b.spheres);
         let triangle_normals = b
             .triangles
@@ -420,9 +400,7 @@ impl Scene {
             triangle_normals,
             prims,
             shapes: b.shapes,
-            lights: b.lights,
-            light_cdf,
-            light_pmf,
+            lights: LightSet::new(b.lights),
             accel,
             has_fluorescence,
             has_media: false,
@@ -465,21 +443,6 @@ impl Scene {
             let n = (p - s.center) / s.radius;
             if self.sphere_flip[k] { -n } else { n }
         }
-    }
-
-    /// Pick a light ∝ power: (index, probability).
-    #[inline]
-    pub fn sample_light(&self, u: f32) -> (usize, f32) {
-        let i = self
-            .light_cdf
-            .partition_point(|&c| c <= u)
-            .min(self.lights.len() - 1);
-        (i, self.light_pmf[i])
-    }
-
-    #[inline]
-    pub fn light_pmf(&self, i: usize) -> f32 {
-        self.light_pmf[i]
     }
 
     pub fn material(&self, id: u32) -> Option<&Material> {
@@ -619,7 +582,6 @@ impl Builder {
             }
         };
 
-        let first_tri = self.triangles.len();
         let mut tris: Vec<Triangle> = Vec::new();
         let mut sphere: Option<Sphere> = None;
         match s.kind {
@@ -756,7 +718,6 @@ impl Builder {
                 .scaled(e.scale);
             let shape = if let Some(sp) = sphere {
                 LightShape::Sphere {
-                    prim: self.spheres.len() as u32,
                     sphere: sp,
                     flip: s.flip_normals,
                 }
@@ -770,9 +731,7 @@ impl Builder {
                     })
                     .collect();
                 LightShape::Triangles {
-                    prims: (first_tri..first_tri + tris.len())
-                        .map(|i| i as u32)
-                        .collect(),
+                    tris: tris.clone(),
                     cdf,
                 }
             };

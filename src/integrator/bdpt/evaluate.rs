@@ -1,15 +1,14 @@
 //! Connecting sub-paths for every strategy (s, t), the measurement contribution f_j (eq. 6.2)
 //! and the weighted throughput w · f / p (eqs. 6.18, 6.19).
 
-use super::geometric::{visible, visible_to_camera};
 use super::mis::{FullPath, ResetMode};
 use super::reset;
-use super::subpath::{Vertex, light_lambda_pdf, sample_light_lambda, sample_light_vertex};
+use super::subpath::{Vertex, sample_light_vertex};
 use super::{Bdpt, Scratch};
 use crate::integrator::{SampleSink, Sampler};
-use crate::material::{Bbrrdf, Material};
+use crate::material::{Bbrrdf, Material, PathSide};
 use crate::scene::{NONE, Scene};
-use std::f64::consts::FRAC_1_PI;
+use crate::transport::transmittance;
 
 /// The measurement contribution f_j of the path (eq. 6.2) without visibility, with the pinhole
 /// importance We = 1 / (A cos⁴θ) of the whole film at unit distance (the camera strategies' pixel
@@ -29,28 +28,24 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
         if x.material == NONE {
             return 0.0;
         }
-        let n = x.n;
-        // two-sided diffuse reflection: both neighbours on the same side
-        if n.dot(v[i - 1].p - x.p) * n.dot(v[i + 1].p - x.p) <= 0.0 {
-            return 0.0;
-        }
+        let (wo, _) = x.towards(&v[i - 1]);
+        let (wi, _) = x.towards(&v[i + 1]);
+        let f_dir = x.scattering().eval(wo, wi);
         let m: &Material = &scene.materials[x.material as usize];
-        f *= m.spectral(path.lambda[i], path.lambda[i - 1], !path.shift[i]) as f64 * FRAC_1_PI;
+        f *= m.eval(path.lambda[i], path.lambda[i - 1], path.shift[i]) as f64 * f_dir as f64;
         if f <= 0.0 {
             return 0.0;
         }
     }
     for i in 0..k - 1 {
-        let d = v[i + 1].p - v[i].p;
-        let d2 = d.length_squared() as f64;
-        let w = d / (d2 as f32).sqrt();
+        let (w, d2) = v[i].towards(&v[i + 1]);
         let c0 = if i == 0 {
             w.dot(scene.camera.forward) as f64
         } else {
-            v[i].n.dot(w).abs() as f64
+            v[i].abs_cos(w) as f64
         };
-        let c1 = v[i + 1].n.dot(w).abs() as f64;
-        f *= c0 * c1 / d2;
+        let c1 = v[i + 1].abs_cos(w) as f64;
+        f *= c0 * c1 / d2 as f64;
         if i == 0 {
             if c0 <= 0.0 {
                 return 0.0;
@@ -75,7 +70,7 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
             path.pa_rev[i] = x.pdf_fwd as f64;
         }
     }
-    // the pdfs across the connection, from the shared geometric core (pbrt `Vertex::Pdf`)
+    // the pdfs across the connection, from the transport layer (pbrt `Vertex::Pdf`)
     let v = &path.v;
     if t == 0 {
         // the camera path hit the emitter: light point and emission pdfs at x(k−1)
@@ -90,12 +85,12 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     // wavelength pdfs of each interior vertex (eqs. 6.6–6.8)
     for i in 1..=k.saturating_sub(2) {
         let m: &Material = &scene.materials[path.v[i].material as usize];
-        let (li, lo, same) = (path.lambda[i], path.lambda[i - 1], !path.shift[i]);
+        let (li, lo, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
         if m.is_fluorescent() {
-            let ws = b.wavelength_sampling;
-            path.pc[i] = m.pdf_wavelength_camera(lo, li, same, ws) as f64;
+            let ws = b.shift;
+            path.pc[i] = m.pdf(lo, li, shifted, PathSide::Camera, ws) as f64;
             path.big_pc[i] = m.fluorescence_probability_camera(lo) as f64;
-            path.pl[i] = m.pdf_wavelength_light(li, lo, same, ws) as f64;
+            path.pl[i] = m.pdf(li, lo, shifted, PathSide::Light, ws) as f64;
             path.big_pl[i] = m.fluorescence_probability_light(li) as f64;
         } else {
             path.pc[i] = 1.0;
@@ -107,8 +102,7 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     path.pc0 = scene
         .observer
         .pdf_wavelength(b.camera_wavelengths, path.lambda[0]) as f64;
-    path.ple = light_lambda_pdf(
-        scene,
+    path.ple = scene.lights.pdf_wavelength(
         path.v[k - 1].light as usize,
         path.lambda[k - 2],
         b.light_wavelengths,
@@ -122,6 +116,28 @@ pub fn strategy_layer(s: usize, t: usize) -> usize {
 }
 
 impl Bdpt {
+    /// Set the wavelengths of the connected path (Jung 6.3): light tracing keeps the light
+    /// sub-path's, camera hits and forward NEE keep the camera's, otherwise the forward or
+    /// backward reset walks from the connection.
+    fn reset(&self, scene: &Scene, path: &mut FullPath, s: usize, t: usize, sampler: &mut Sampler) {
+        let k = path.k;
+        match (self.mode, s, t) {
+            (_, 1, _) => reset::light_only(path),
+            (ResetMode::Forward, _, 0 | 1) => reset::camera_only(path),
+            (ResetMode::Forward, _, _) => reset::forward_reset(scene, path, s, sampler),
+            (ResetMode::Backward, _, 0) => {
+                // camera hit the emitter: λ(k−2) from its emission, then walk (Jung 6.3.3)
+                let li = path.v[k - 1].light as usize;
+                let mode = self.light_wavelengths;
+                path.lambda[k - 2] = scene.lights.sample_wavelength(li, sampler.next(), mode).0;
+                reset::backward_reset(scene, path, k - 1, sampler);
+            }
+            (ResetMode::Backward, _, _) => {
+                reset::backward_reset_light_path(scene, path, s, sampler)
+            }
+        }
+    }
+
     /// Connect the camera prefix of length `s` with the light suffix of length `t` (t = 1: a
     /// fresh light vertex), reset wavelengths, and add the weighted contribution.
     pub(super) fn connect(
@@ -143,8 +159,7 @@ impl Bdpt {
             let mut lv = sample_light_vertex(scene, sampler);
             if self.mode == ResetMode::Backward {
                 // backward: λ from the chosen light first, then walk the camera path
-                let (l, _) = sample_light_lambda(
-                    scene,
+                let (l, _) = scene.lights.sample_wavelength(
                     lv.light as usize,
                     sampler.next(),
                     self.light_wavelengths,
@@ -159,22 +174,7 @@ impl Bdpt {
         if path.v[k - 1].light == NONE {
             return;
         }
-        // Wavelengths (Jung 6.3).
-        match (self.mode, s, t) {
-            (_, 1, _) => reset::light_only(path),
-            (ResetMode::Forward, _, 0) | (ResetMode::Forward, _, 1) => reset::camera_only(path),
-            (ResetMode::Forward, _, _) => reset::forward_reset(scene, path, s, sampler),
-            (ResetMode::Backward, _, 0) => {
-                // camera hit the emitter: λ(k−2) from its emission, then walk (Jung 6.3.3)
-                let li = path.v[k - 1].light as usize;
-                let (l, _) = sample_light_lambda(scene, li, sampler.next(), self.light_wavelengths);
-                path.lambda[k - 2] = l;
-                reset::backward_reset(scene, path, k - 1, sampler);
-            }
-            (ResetMode::Backward, _, _) => {
-                reset::backward_reset_light_path(scene, path, s, sampler)
-            }
-        }
+        self.reset(scene, path, s, t, sampler);
         let xyz_w = scene.observer.xyz_weight(path.lambda[0]);
         if xyz_w == glam::Vec3::ZERO {
             return;
@@ -192,18 +192,20 @@ impl Bdpt {
                 None => return,
             }
         }
-        // visibility of the connecting segment
+        // transmittance of the connecting segment (shadow rays start on the surface side)
+        let mut f = f;
         if t >= 1 {
-            let (a, b) = (&path.v[s - 1], &path.v[s]);
+            let (a, b) = (path.v[s - 1].endpoint(), path.v[s].endpoint());
             let rays = &mut sink.stats.rays;
-            let vis = if s == 1 {
-                visible_to_camera(scene, b, a.p, rays)
+            let tr = if s == 1 {
+                transmittance(scene, b, a, rays)
             } else {
-                visible(scene, a, b, rays)
+                transmittance(scene, a, b, rays)
             };
-            if !vis {
+            if tr.is_zero() {
                 return;
             }
+            f *= tr.at(path.lambda[s - 1]) as f64;
         }
         fill_pdfs(self, scene, path, s, t);
         let p = path.strategy_pdf(s, self.mode);
@@ -270,20 +272,7 @@ pub fn connect_for_test(
     if path.v[k - 1].light == NONE {
         return None;
     }
-    match (b.mode, s, t) {
-        (_, 1, _) => reset::light_only(&mut path),
-        (ResetMode::Forward, _, 0) => reset::camera_only(&mut path),
-        (ResetMode::Forward, _, _) => reset::forward_reset(scene, &mut path, s, sampler),
-        (ResetMode::Backward, _, 0) => {
-            let li = path.v[k - 1].light as usize;
-            let (l, _) = sample_light_lambda(scene, li, sampler.next(), b.light_wavelengths);
-            path.lambda[k - 2] = l;
-            reset::backward_reset(scene, &mut path, k - 1, sampler);
-        }
-        (ResetMode::Backward, _, _) => {
-            reset::backward_reset_light_path(scene, &mut path, s, sampler)
-        }
-    }
+    b.reset(scene, &mut path, s, t, sampler);
     if measurement(scene, &path) <= 0.0 {
         return None;
     }

@@ -2,8 +2,9 @@
 //! segment, camera and light sub-paths that sample wavelengths independently, the forward or
 //! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6).
 //!
-//! - `geometric`: the wavelength-free core shared with `bdpt-allbins`: vertices with area pdfs
-//!   in both directions, light-point and emission sampling, the random walk, pbrt-style pdfs.
+//! - `geometric`: the wavelength-free random walk shared with `bdpt-allbins`; vertices with
+//!   area pdfs in both directions, lobes, light sampling and transmittance come from
+//!   `crate::transport`.
 //! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths and
 //!   area pdfs in both directions.
 //! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
@@ -19,14 +20,15 @@ pub mod mis;
 pub mod reset;
 pub mod subpath;
 
+pub use crate::transport::VertexKind;
 pub use evaluate::{connect_for_test, strategy_layer};
 pub use mis::{FullPath, ResetMode};
-pub use subpath::{Vertex, VertexKind, camera_subpath, light_subpath};
+pub use subpath::{Vertex, camera_subpath, light_subpath};
 
 use crate::integrator::{
     Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, SampleSink, Sampler,
 };
-use crate::material::WavelengthSampling;
+use crate::material::ShiftSampling;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::cie::CameraWavelengths;
 
@@ -34,7 +36,7 @@ pub struct Bdpt {
     pub(crate) mode: ResetMode,
     pub(crate) max_depth: u32,
     pub(crate) camera_wavelengths: CameraWavelengths,
-    pub(crate) wavelength_sampling: WavelengthSampling,
+    pub(crate) shift: ShiftSampling,
     pub(crate) light_wavelengths: LightWavelengths,
     pub(crate) mis: MisHeuristic,
     pub(crate) strategy_images: bool,
@@ -68,7 +70,7 @@ impl Bdpt {
             mode,
             max_depth: o.max_depth,
             camera_wavelengths: o.camera_wavelengths,
-            wavelength_sampling: o.wavelength_sampling,
+            shift: ShiftSampling::new(o.wavelength_sampling, scene.domain),
             light_wavelengths: o.light_wavelengths,
             mis: o.mis,
             strategy_images: o.strategy_images,
@@ -112,7 +114,7 @@ impl Bdpt {
             y,
             lambda0,
             md + 1,
-            self.wavelength_sampling,
+            self.shift,
             self.mode == ResetMode::Forward,
             sampler,
             stats,
@@ -122,7 +124,7 @@ impl Bdpt {
             scene,
             md,
             self.light_wavelengths,
-            self.wavelength_sampling,
+            self.shift,
             self.mode == ResetMode::Backward,
             sampler,
             stats,

@@ -4,11 +4,11 @@
 //! (`lambda_out`); whether the vertex shifted the wavelength is the core vertex's `shift`.
 
 use super::geometric::{self, Step};
-use crate::integrator::{LightWavelengths, Sampler, Stats};
-use crate::material::{Bbrrdf, Material, WavelengthSampling};
-use crate::scene::{NONE, Scene};
-
-pub use super::geometric::{VertexKind, emission_pdf_dir};
+use crate::geometry::ray::spawn_ray;
+use crate::integrator::{Sampler, Stats};
+use crate::material::{Bbrrdf, Material, PathSide, ShiftSampling};
+use crate::scene::{LightWavelengths, NONE, Scene};
+use crate::transport;
 
 /// The wavelength payload of a bdpt-forward/backward vertex.
 #[derive(Clone, Copy, Debug, Default)]
@@ -19,8 +19,36 @@ pub struct Lambdas {
     pub lambda_out: f32,
 }
 
-/// A sub-path vertex: geometry and area pdfs (shared core) plus wavelengths.
-pub type Vertex = geometric::Vertex<Lambdas>;
+/// A sub-path vertex: geometry and area pdfs (transport layer) plus wavelengths.
+pub type Vertex = transport::Vertex<Lambdas>;
+
+/// Sample the wavelength on the far side of a scattering vertex `v` of material `m` whose near
+/// side carries `l` (eq. 6.6 on camera paths, 6.7 on light paths); returns the weight f/p.
+#[inline]
+fn scatter(
+    v: &mut Vertex,
+    m: &Material,
+    l: f32,
+    side: PathSide,
+    shift: ShiftSampling,
+    sampler: &mut Sampler,
+) -> f32 {
+    v.data = Lambdas {
+        lambda_in: l,
+        lambda_out: l,
+    };
+    if !m.is_fluorescent() {
+        return m.diagonal(l);
+    }
+    // decide with P, then sample the absorption (camera) or emission (light) side
+    let s = m.sample(l, sampler.next2(), side, shift);
+    match side {
+        PathSide::Camera => v.data.lambda_in = s.lambda,
+        PathSide::Light => v.data.lambda_out = s.lambda,
+    }
+    v.shift = s.fluorescent;
+    s.weight()
+}
 
 /// Trace a camera sub-path with at most `max_vertices` vertices (x0 included), Jung Alg. 1.
 /// At each surface the incident wavelength is sampled as a camera path does (eq. 6.6), the last
@@ -33,7 +61,7 @@ pub fn camera_subpath(
     y: f32,
     lambda0: f32,
     max_vertices: usize,
-    mode: WavelengthSampling,
+    shift: ShiftSampling,
     stop_on_zero: bool,
     sampler: &mut Sampler,
     stats: &mut Stats,
@@ -57,23 +85,15 @@ pub fn camera_subpath(
         |verts, sampler| {
             let [.., prev, v] = verts else { unreachable!() };
             let lambda_out = prev.data.lambda_in;
-            v.data = Lambdas {
-                lambda_in: lambda_out,
-                lambda_out,
-            };
             if v.material == NONE {
+                v.data = Lambdas {
+                    lambda_in: lambda_out,
+                    lambda_out,
+                };
                 return Step::Stop;
             }
             let m: &Material = &scene.materials[v.material as usize];
-            if m.is_fluorescent() {
-                // eq. 6.6: decide with P_c, then sample the absorption side
-                let s = m.sample_wavelength_camera(lambda_out, sampler.next2(), mode);
-                v.data.lambda_in = s.lambda;
-                v.shift = s.shifted;
-                beta *= s.weight;
-            } else {
-                beta *= m.diagonal(lambda_out);
-            }
+            beta *= scatter(v, m, lambda_out, PathSide::Camera, shift, sampler);
             if stop_on_zero && beta <= 0.0 {
                 Step::Stop
             } else {
@@ -82,37 +102,6 @@ pub fn camera_subpath(
         },
     );
     stats.rays += rays;
-}
-/// Light wavelength pdf of a light sub-path's first wavelength (eq. 6.5 / option 1).
-#[inline]
-pub fn light_lambda_pdf(scene: &Scene, light: usize, l: f32, mode: LightWavelengths) -> f32 {
-    match mode {
-        LightWavelengths::Emission => scene.lights[light].pdf_wavelength(l),
-        LightWavelengths::Uniform => scene.domain.uniform_pdf(l),
-    }
-}
-
-/// Sample a light sub-path's first wavelength: (λ, pdf).
-#[inline]
-pub fn sample_light_lambda(
-    scene: &Scene,
-    light: usize,
-    u: f32,
-    mode: LightWavelengths,
-) -> (f32, f32) {
-    match mode {
-        LightWavelengths::Emission => scene.lights[light].sample_wavelength(u),
-        LightWavelengths::Uniform => {
-            let l = scene.domain.sample_uniform(u);
-            (l, scene.domain.uniform_pdf(l))
-        }
-    }
-}
-
-/// A light vertex chosen by power and a point by area (no wavelength yet).
-#[inline]
-pub fn sample_light_vertex(scene: &Scene, sampler: &mut Sampler) -> Vertex {
-    geometric::sample_light_vertex(scene, sampler)
 }
 
 /// Trace a light sub-path with at most `max_vertices` vertices, Jung Alg. 3: light ∝ power,
@@ -124,7 +113,7 @@ pub fn light_subpath(
     scene: &Scene,
     max_vertices: usize,
     light_mode: LightWavelengths,
-    mode: WavelengthSampling,
+    shift: ShiftSampling,
     stop_on_zero: bool,
     sampler: &mut Sampler,
     stats: &mut Stats,
@@ -135,21 +124,24 @@ pub fn light_subpath(
         return;
     }
     let mut v0 = sample_light_vertex(scene, sampler);
-    let light = &scene.lights[v0.light as usize];
-    let (l, _) = sample_light_lambda(scene, v0.light as usize, sampler.next(), light_mode);
+    let li = v0.light as usize;
+    let (l, _) = scene
+        .lights
+        .sample_wavelength(li, sampler.next(), light_mode);
     v0.data.lambda_in = l;
     v0.data.lambda_out = l;
-    let mut beta = light.spectrum.eval(l);
+    let mut beta = scene.lights[li].spectrum.eval(l);
     out.push(v0);
     if max_vertices == 1 || (stop_on_zero && beta <= 0.0) {
         return;
     }
-    let (ray, pdf_dir) = geometric::sample_emission(scene, &v0, sampler);
+    let e = scene.lights.sample_le_direction(li, v0.n, sampler.next2());
+    let ray = spawn_ray(v0.p, v0.n, e.w);
     let mut rays = 0u64;
     geometric::random_walk(
         scene,
         ray,
-        pdf_dir,
+        e.pdf_dir,
         out,
         max_vertices,
         sampler,
@@ -160,21 +152,8 @@ pub fn light_subpath(
                 // Black: cannot scatter or connect.
                 return Step::Discard;
             }
-            let lambda_in = prev.data.lambda_out;
-            v.data = Lambdas {
-                lambda_in,
-                lambda_out: lambda_in,
-            };
             let m: &Material = &scene.materials[v.material as usize];
-            if m.is_fluorescent() {
-                // eq. 6.7: decide with P_l, then sample the emission side
-                let s = m.sample_wavelength_light(lambda_in, sampler.next2(), mode);
-                v.data.lambda_out = s.lambda;
-                v.shift = s.shifted;
-                beta *= s.weight;
-            } else {
-                beta *= m.diagonal(lambda_in);
-            }
+            beta *= scatter(v, m, prev.data.lambda_out, PathSide::Light, shift, sampler);
             if stop_on_zero && beta <= 0.0 {
                 Step::Stop
             } else {
@@ -183,4 +162,12 @@ pub fn light_subpath(
         },
     );
     stats.rays += rays;
+}
+
+/// A light vertex: a light chosen by power and a point by area, with `pdf_fwd` their product
+/// (sampler: one value for the light, three for the point). No wavelength yet.
+#[inline]
+pub fn sample_light_vertex(scene: &Scene, sampler: &mut Sampler) -> Vertex {
+    let (ul, up, u2) = (sampler.next(), sampler.next(), sampler.next2());
+    Vertex::light(&scene.lights.sample_le_origin(ul, up, u2))
 }

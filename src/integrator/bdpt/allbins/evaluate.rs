@@ -3,9 +3,8 @@
 //! connection costs O(bins) whatever the path length.
 
 use super::Vertex;
-use crate::integrator::bdpt::geometric::VertexKind;
-use crate::material::Material;
 use crate::scene::Scene;
+use crate::transport::VertexKind;
 use glam::Vec3;
 
 /// Σ a[i]·b[i], with eight independent partial sums so the loop vectorises.
@@ -109,9 +108,8 @@ pub fn dot3_on(rows: &[f32], t: &[f32], on: Support) -> Vec3 {
 }
 
 /// Directional factor of vertex `v` for light leaving (or importance arriving) towards `to`,
-/// given the other neighbour `prev` on its own sub-path: the diffuse 1/π when both directions lie
-/// on the same side (two-sided reflective lobe), the emitter's directional profile (1 on an
-/// emitting side) for a light origin.
+/// given the other neighbour `prev` on its own sub-path: the vertex's lobe for a scattering
+/// vertex, the emitter's directional profile (1 on an emitting side) for a light origin.
 #[inline]
 pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, to: Vec3) -> f32 {
     match v.kind {
@@ -125,23 +123,19 @@ pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, to: Vec3) -> f32 
         }
         VertexKind::Surface => {
             let Some(prev) = prev else { return 0.0 };
-            if v.n.dot(to - v.p) * v.n.dot(prev.p - v.p) > 0.0 {
-                Material::DIFFUSE
-            } else {
-                0.0
-            }
+            let (wo, _) = v.towards(prev);
+            let wi = (to - v.p).normalize();
+            v.scattering().eval(wo, wi)
         }
         VertexKind::Camera => 0.0,
     }
 }
 
-/// Geometry term G = |cos_a|·|cos_b| / d² between two surface vertices (Veach eq. 8.3).
+/// Geometry term G = |cos_a|·|cos_b| / d² between two vertices (Veach eq. 8.3).
 #[inline]
 pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
-    let d = b.p - a.p;
-    let d2 = d.length_squared();
-    let w = d / d2.sqrt();
-    a.n.dot(w).abs() * b.n.dot(w).abs() / d2
+    let (w, d2) = a.towards(b);
+    a.abs_cos(w) * b.abs_cos(w) / d2
 }
 
 /// Pinhole importance for a light-tracing splat: the pixel's W_e = N_pixels / (A_film · cos⁴θ)

@@ -11,19 +11,18 @@ pub mod binops;
 pub mod evaluate;
 pub mod mis;
 
-use super::geometric::{
-    self, Step, VertexKind, random_walk, sample_emission, visible, visible_to_camera,
-};
+use super::geometric::{Step, random_walk};
 use super::{strategy_layer, strategy_layer_names};
+use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
+use crate::transport::{self, VertexKind, transmittance};
 use binops::SupportedOp;
 use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we};
 use glam::Vec3;
-use std::f32::consts::PI;
 
 /// The payload of an all-bins vertex: the scalar (directional) throughput arriving at it,
 /// products of f_dir·cos/pdf and 1/(pmf·pdf_area) at a light origin. The spectral part lives in
@@ -33,8 +32,8 @@ pub struct Throughput {
     pub beta: f32,
 }
 
-/// A geometric sub-path vertex (the BDPT core's) with its scalar throughput.
-pub type Vertex = geometric::Vertex<Throughput>;
+/// A geometric sub-path vertex (the transport layer's) with its scalar throughput.
+pub type Vertex = transport::Vertex<Throughput>;
 
 /// The pinhole as a path vertex (light tracing connects to it).
 #[inline]
@@ -55,7 +54,8 @@ fn camera_vertex(scene: &Scene) -> Vertex {
 /// A light point for next-event estimation, with beta = 1/pdf.
 #[inline]
 fn sample_light_vertex(scene: &Scene, sampler: &mut Sampler) -> Vertex {
-    let mut v: Vertex = geometric::sample_light_vertex(scene, sampler);
+    let (ul, up, u2) = (sampler.next(), sampler.next(), sampler.next2());
+    let mut v = Vertex::light(&scene.lights.sample_le_origin(ul, up, u2));
     v.data.beta = 1.0 / v.pdf_fwd;
     v
 }
@@ -264,13 +264,12 @@ impl Integrator for BdptAllbins {
         // Light sub-path y0 … : spec[i] = M_i · spec[i−1], spec[0] = Le.
         light.clear();
         if max_depth >= 2 {
-            let mut y0 = sample_light_vertex(scene, sampler);
+            let y0 = sample_light_vertex(scene, sampler);
             let l = y0.light as usize;
-            let (lray, pdf_dir) = sample_emission(scene, &y0, sampler);
-            // Le·cos/(pdf_pos·pdf_dir) = Le·π/(side·pdf_pos); the spectral Le is in `spec`.
-            let side = if scene.lights[l].two_sided { 0.5 } else { 1.0 };
-            let beta_out = PI / (side * y0.pdf_fwd);
-            y0.data.beta = 1.0 / y0.pdf_fwd;
+            let e = scene.lights.sample_le_direction(l, y0.n, sampler.next2());
+            let (lray, pdf_dir) = (spawn_ray(y0.p, y0.n, e.w), e.pdf_dir);
+            // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
+            let beta_out = e.weight / y0.pdf_fwd;
             spec[..n].copy_from_slice(&self.le[l]);
             spec_support[0] = self.le_support[l];
             light.push(y0);
@@ -357,16 +356,17 @@ impl Integrator for BdptAllbins {
                     if fy == 0.0 {
                         continue;
                     }
-                    let g = cos * yv.n.dot(wdir).abs() / dist2;
+                    let g = cos * yv.abs_cos(wdir) / dist2;
                     let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
                     let c = dot3_on(&self.w, &spec[(s - 1) * n..s * n], on) * scal;
                     if c == Vec3::ZERO {
                         continue;
                     }
-                    if !visible_to_camera(scene, yv, cam.origin, &mut rays) {
+                    let zc = camera_vertex(scene);
+                    // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
+                    if transmittance(scene, yv.endpoint(), zc.endpoint(), &mut rays).is_zero() {
                         continue;
                     }
-                    let zc = camera_vertex(scene);
                     let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
                     if sink.splat(px, py, c * w) {
                         if self.strategy_images {
@@ -418,7 +418,9 @@ impl Integrator for BdptAllbins {
                         continue;
                     }
                     let c = dot3_on(q, ys, on) * scal;
-                    if c == Vec3::ZERO || !visible(scene, z, yv, &mut rays) {
+                    if c == Vec3::ZERO
+                        || transmittance(scene, z.endpoint(), yv.endpoint(), &mut rays).is_zero()
+                    {
                         continue;
                     }
                     let w = self.weight(

@@ -1,0 +1,20 @@
+//! The transport layer every integrator stands on: what happens at and between path vertices,
+//! written once.
+//!
+//! - [`scattering`]: the directional lobe of a vertex ([`Scattering`]: `eval`, `sample`, `pdf`
+//!   in both directions), diffuse on surfaces, Henyey–Greenstein in media.
+//! - [`vertex`]: the bidirectional path vertex with its area pdfs ([`Vertex`]).
+//! - [`visibility`]: [`transmittance`] between two vertices.
+//! - Light sampling (pbrt-v4's four operations) is [`crate::scene::LightSet`], owned by the
+//!   scene; spectral scattering (the new wavelength at a vertex) is [`crate::material::Material`].
+//!
+//! Layering: `spectrum`, `geometry` < `material` < `scene` < `transport` < `integrator` <
+//! `experiment` < `cli`; no module imports from one above it.
+
+pub mod scattering;
+pub mod vertex;
+pub mod visibility;
+
+pub use scattering::{DirectionSample, Scattering};
+pub use vertex::{Vertex, VertexKind};
+pub use visibility::{Endpoint, Transmittance, transmittance};
