@@ -3,7 +3,7 @@
 
 use super::config::{BudgetMode, Config, RegionBy, resolve};
 use super::metrics::{self, ErrorMetrics, Spread};
-use crate::cli::CliError;
+use crate::error::Error;
 use crate::film::output::{read_exr, write_atomic, write_exr};
 use crate::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
 use crate::scene::Scene;
@@ -246,20 +246,20 @@ impl Progress {
     }
 }
 
-fn mkdir(p: &Path) -> Result<(), CliError> {
+fn mkdir(p: &Path) -> Result<(), Error> {
     std::fs::create_dir_all(p)
-        .map_err(|e| CliError::runtime(format!("cannot create folder '{}': {e}", p.display())))
+        .map_err(|e| Error::runtime(format!("cannot create folder '{}': {e}", p.display())))
 }
 
-fn write_text(p: &Path, text: &str) -> Result<(), CliError> {
+fn write_text(p: &Path, text: &str) -> Result<(), Error> {
     write_atomic(p, |tmp| {
         std::fs::write(tmp, text).map_err(|e| format!("cannot write '{}': {e}", p.display()))
     })
-    .map_err(CliError::runtime)
+    .map_err(Error::runtime)
 }
 
 /// Create a new, empty run folder under `<root>/<name>/runs/`; never reuses an existing one.
-fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), CliError> {
+fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), Error> {
     let runs = root.join(name).join("runs");
     mkdir(&runs)?;
     let ts = timestamp();
@@ -274,14 +274,14 @@ fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), CliError> {
             Ok(()) => return Ok((d, n)),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => {
-                return Err(CliError::runtime(format!(
+                return Err(Error::runtime(format!(
                     "cannot create run folder '{}': {e}",
                     d.display()
                 )));
             }
         }
     }
-    Err(CliError::runtime("too many runs in the same second"))
+    Err(Error::runtime("too many runs in the same second"))
 }
 
 /// Fail early, naming the integrator, when it is not available in this build.
@@ -290,7 +290,7 @@ fn check_available(
     kind: IntegratorKind,
     opts: &IntegratorOptions,
     what: &str,
-) -> Result<(), CliError> {
+) -> Result<(), Error> {
     let s = RenderSettings {
         spp: 0,
         seed: 0,
@@ -300,7 +300,7 @@ fn check_available(
     };
     render(scene, kind, opts, &s, None)
         .map(|_| ())
-        .map_err(|e| CliError::input(format!("{what}: integrator `{}`: {e}", kind.name())))
+        .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
 }
 
 /// Load a scene with one material parameter overridden (parameter grids).
@@ -309,15 +309,15 @@ fn scene_with_override(
     text: &str,
     material: &str,
     overrides: &[(&str, f64)],
-) -> Result<Scene, CliError> {
-    let mut v: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| CliError::input(format!("{}: {e}", path.display())))?;
+) -> Result<Scene, Error> {
+    let mut v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| Error::input(format!("{}: {e}", path.display())))?;
     let m = v
         .get_mut("materials")
         .and_then(|m| m.get_mut(material))
         .and_then(|m| m.as_object_mut())
         .ok_or_else(|| {
-            CliError::input(format!(
+            Error::input(format!(
                 "grid.material: no material {material:?} in '{}'",
                 path.display()
             ))
@@ -334,7 +334,7 @@ pub fn run_experiment(
     config_path: &Path,
     root: Option<&Path>,
     quick: bool,
-) -> Result<PathBuf, CliError> {
+) -> Result<PathBuf, Error> {
     let mut cfg = Config::load(config_path)?;
     if quick {
         cfg.quicken();
@@ -349,7 +349,7 @@ pub fn run_experiment(
     });
     let scene_path = cfg.scene_path(config_path);
     let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
-        CliError::input(format!(
+        Error::input(format!(
             "{}: field `scene`: cannot read '{}': {e}",
             config_path.display(),
             scene_path.display()
@@ -363,7 +363,7 @@ pub fn run_experiment(
     let crop = match cfg.crop {
         Some(c) => {
             if c.x + c.w > fw || c.y + c.h > fh {
-                return Err(CliError::input(format!(
+                return Err(Error::input(format!(
                     "{}: field `crop`: {}×{} at ({}, {}) exceeds the {fw}×{fh} image",
                     config_path.display(),
                     c.w,
@@ -386,7 +386,7 @@ pub fn run_experiment(
     let scanline = match cfg.scanline {
         Some(s) => {
             if s.row.is_some_and(|r| r >= fh) || s.column.is_some_and(|c| c >= fw) {
-                return Err(CliError::input(format!(
+                return Err(Error::input(format!(
                     "{}: field `scanline`: outside the {fw}×{fh} image",
                     config_path.display()
                 )));
@@ -471,13 +471,13 @@ pub fn run_experiment(
     if let Some(r) = &cfg.reference {
         let img = if let Some(p) = &r.exr {
             let p = resolve(config_path, p);
-            let (rw, rh, px) = read_exr(&p).map_err(CliError::input)?;
+            let (rw, rh, px) = read_exr(&p).map_err(Error::input)?;
             if (rw, rh) == (w, h) {
                 px
             } else if quick || (rw, rh) == (fw, fh) && (w, h) != (fw, fh) {
                 resample(&px, rw, rh, w, h)
             } else {
-                return Err(CliError::input(format!(
+                return Err(Error::input(format!(
                     "{}: field `reference.exr`: image is {rw}×{rh}, the scene renders {w}×{h}",
                     config_path.display()
                 )));
@@ -516,14 +516,14 @@ pub fn run_experiment(
                             true
                         };
                     let out = render(&scene, kind, &r.options, &settings, Some(&mut cb))
-                        .map_err(|e| CliError::runtime(format!("reference: {e}")))?;
+                        .map_err(|e| Error::runtime(format!("reference: {e}")))?;
                     let px = out.film.rgb();
-                    write_exr(&cache, w, h, &px).map_err(CliError::runtime)?;
+                    write_exr(&cache, w, h, &px).map_err(Error::runtime)?;
                     px
                 }
             }
         };
-        write_exr(&run_dir.join("reference.exr"), w, h, &img).map_err(CliError::runtime)?;
+        write_exr(&run_dir.join("reference.exr"), w, h, &img).map_err(Error::runtime)?;
         reference = Some(img);
     }
 
@@ -647,7 +647,7 @@ pub fn run_experiment(
                     };
                 render(&scene, v.integrator, &v.options, &settings, Some(&mut cb)).map_err(
                     |e| {
-                        CliError::runtime(format!(
+                        Error::runtime(format!(
                             "variant `{}`: integrator `{}`: {e}",
                             v.name,
                             v.integrator.name()
@@ -655,7 +655,7 @@ pub fn run_experiment(
                     },
                 )?;
                 if let Some(e) = failure {
-                    return Err(CliError::runtime(e));
+                    return Err(Error::runtime(e));
                 }
                 bar.inc(per_job(mb).saturating_sub(done_units));
             }
@@ -681,7 +681,7 @@ pub fn run_experiment(
                     &g.material,
                     &[(&g.rows.field, *rv), (&g.columns.field, *cv)],
                 )
-                .map_err(|e| CliError::input(format!("grid cell ({i}, {j}): {}", e.message)))?;
+                .map_err(|e| Error::input(format!("grid cell ({i}, {j}): {}", e.message)))?;
                 resize_camera(&mut s, w, h);
                 let settings = RenderSettings {
                     spp: match mb.mode {
@@ -697,10 +697,9 @@ pub fn run_experiment(
                     progress: false,
                 };
                 let out = render(&s, v.integrator, &v.options, &settings, None)
-                    .map_err(|e| CliError::runtime(format!("grid: {e}")))?;
+                    .map_err(|e| Error::runtime(format!("grid: {e}")))?;
                 let file = format!("grid/r{i}_c{j}.exr");
-                write_exr(&run_dir.join(&file), w, h, &out.film.rgb())
-                    .map_err(CliError::runtime)?;
+                write_exr(&run_dir.join(&file), w, h, &out.film.rgb()).map_err(Error::runtime)?;
                 grid_cells.push(GridCell {
                     row: i,
                     column: j,
@@ -743,7 +742,7 @@ pub fn run_experiment(
         &run_dir.join("run.json"),
         &serde_json::to_string_pretty(&info).unwrap(),
     )?;
-    super::figures::make_all(&run_dir).map_err(CliError::runtime)?;
+    super::figures::make_all(&run_dir).map_err(Error::runtime)?;
     print_summary(&rows);
     // Only now does `latest` move to this run.
     write_text(
