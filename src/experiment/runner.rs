@@ -284,22 +284,14 @@ fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), Error> {
     Err(Error::runtime("too many runs in the same second"))
 }
 
-/// Fail early, naming the integrator, when it is not available in this build.
+/// Fail early, naming the integrator, when it does not accept the scene or the options.
 fn check_available(
     scene: &Scene,
     kind: IntegratorKind,
     opts: &IntegratorOptions,
     what: &str,
 ) -> Result<(), Error> {
-    let s = RenderSettings {
-        spp: 0,
-        seed: 0,
-        threads: Some(1),
-        time_limit: None,
-        progress: false,
-    };
-    render(scene, kind, opts, &s, None)
-        .map(|_| ())
+    crate::integrator::render::check(scene, kind, opts)
         .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
 }
 
