@@ -8,8 +8,10 @@
 pub mod config;
 pub mod figures;
 pub mod metrics;
+pub mod record;
 pub mod runner;
 
 pub use config::Config;
 pub use metrics::{ErrorMetrics, compare};
-pub use runner::{RunInfo, run_experiment};
+pub use record::RunInfo;
+pub use runner::run_experiment;

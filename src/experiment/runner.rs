@@ -2,138 +2,17 @@
 //! snapshot and repeat, metrics per region, and the stored results the figures are built from.
 
 use super::config::{BudgetMode, Config, RegionBy, resolve};
-use super::metrics::{self, ErrorMetrics, Spread};
+use super::metrics::{self, ErrorMetrics};
+use super::record::{
+    GridCell, ModeBudgets, Row, RunInfo, SummaryEntry, image_file, metrics_csv, summarize,
+};
 use crate::error::Error;
 use crate::film::output::{read_exr, write_atomic, write_exr};
 use crate::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
 use crate::scene::Scene;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Everything the figures need besides `metrics.csv` and the images, written as `run.json`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct RunInfo {
-    pub config: Config,
-    pub config_file: PathBuf,
-    pub quick: bool,
-    pub width: u32,
-    pub height: u32,
-    /// Crop and scanline in this run's pixels (scaled for `--quick`).
-    pub crop: Option<super::config::Crop>,
-    pub scanline: Option<super::config::Scanline>,
-    pub region_names: Vec<String>,
-    /// Budgets per mode, in snapshot order.
-    pub modes: Vec<ModeBudgets>,
-    pub reference_file: Option<String>,
-    /// Parameter grid cells (row, column, EXR file), when the config has a grid.
-    pub grid_cells: Vec<GridCell>,
-    pub started: String,
-    pub threads: usize,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct ModeBudgets {
-    pub mode: BudgetMode,
-    pub budgets: Vec<f64>,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct GridCell {
-    pub row: usize,
-    pub column: usize,
-    pub file: String,
-}
-
-/// One line of `metrics.csv`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Row {
-    pub variant: String,
-    pub integrator: String,
-    pub mode: String,
-    pub budget: f64,
-    pub repeat: u32,
-    pub seed: u64,
-    pub spp: u32,
-    pub seconds: f64,
-    pub samples_per_second: f64,
-    pub region: String,
-    pub pixels: usize,
-    pub mse: f64,
-    pub rel_mse: f64,
-    pub snr_db: f64,
-    pub efficiency: f64,
-}
-
-pub const CSV_HEADER: &str = "variant,integrator,mode,budget,repeat,seed,spp,seconds,samples_per_second,region,pixels,mse,rel_mse,snr_db,efficiency";
-
-impl Row {
-    pub fn to_csv(&self) -> String {
-        format!(
-            "{},{},{},{},{},{},{},{:.6},{:.1},{},{},{:e},{:e},{:.4},{:e}",
-            self.variant,
-            self.integrator,
-            self.mode,
-            self.budget,
-            self.repeat,
-            self.seed,
-            self.spp,
-            self.seconds,
-            self.samples_per_second,
-            self.region,
-            self.pixels,
-            self.mse,
-            self.rel_mse,
-            self.snr_db,
-            self.efficiency
-        )
-    }
-    pub fn from_csv(line: &str) -> Option<Row> {
-        let f: Vec<&str> = line.trim().split(',').collect();
-        if f.len() != 15 {
-            return None;
-        }
-        let p = |s: &str| s.parse::<f64>().ok();
-        Some(Row {
-            variant: f[0].into(),
-            integrator: f[1].into(),
-            mode: f[2].into(),
-            budget: p(f[3])?,
-            repeat: f[4].parse().ok()?,
-            seed: f[5].parse().ok()?,
-            spp: f[6].parse().ok()?,
-            seconds: p(f[7])?,
-            samples_per_second: p(f[8])?,
-            region: f[9].into(),
-            pixels: f[10].parse().ok()?,
-            mse: p(f[11])?,
-            rel_mse: p(f[12])?,
-            snr_db: p(f[13])?,
-            efficiency: p(f[14])?,
-        })
-    }
-}
-
-pub fn read_metrics(path: &Path) -> Result<Vec<Row>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    let mut rows = Vec::new();
-    for (i, l) in text.lines().enumerate().skip(1) {
-        if l.trim().is_empty() {
-            continue;
-        }
-        rows.push(
-            Row::from_csv(l).ok_or_else(|| format!("{}: bad line {}", path.display(), i + 1))?,
-        );
-    }
-    Ok(rows)
-}
-
-/// Snapshot image file of `variant` at budget index `idx` of `mode`, repeat `r`.
-pub fn image_file(variant: &str, mode: BudgetMode, idx: usize, r: u32) -> String {
-    format!("images/{variant}__{}{idx}__r{r}.exr", mode.name())
-}
 
 /// UTC time as `YYYYMMDD-HHMMSS`.
 pub fn timestamp() -> String {
@@ -704,13 +583,7 @@ pub fn run_experiment(
     bar.finish_and_clear();
 
     // Results.
-    let mut csv = String::from(CSV_HEADER);
-    csv.push('\n');
-    for r in &rows {
-        csv.push_str(&r.to_csv());
-        csv.push('\n');
-    }
-    write_text(&run_dir.join("metrics.csv"), &csv)?;
+    write_text(&run_dir.join("metrics.csv"), &metrics_csv(&rows))?;
     write_text(
         &run_dir.join("summary.json"),
         &serde_json::to_string_pretty(&summarize(&rows)).unwrap(),
@@ -743,71 +616,6 @@ pub fn run_experiment(
     )?;
     eprintln!("results: {}", run_dir.display());
     Ok(run_dir)
-}
-
-/// Mean and spread over repeats, per variant × mode × budget × region.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SummaryEntry {
-    pub variant: String,
-    pub integrator: String,
-    pub mode: String,
-    pub budget: f64,
-    pub region: String,
-    pub repeats: usize,
-    pub spp: Spread,
-    pub seconds: Spread,
-    pub samples_per_second: Spread,
-    pub mse: Spread,
-    pub rel_mse: Spread,
-    pub snr_db: Spread,
-    pub efficiency: Spread,
-}
-
-pub fn summarize(rows: &[Row]) -> Vec<SummaryEntry> {
-    let mut keys: Vec<(String, String, String, f64, String)> = Vec::new();
-    for r in rows {
-        let k = (
-            r.variant.clone(),
-            r.integrator.clone(),
-            r.mode.clone(),
-            r.budget,
-            r.region.clone(),
-        );
-        if !keys.contains(&k) {
-            keys.push(k);
-        }
-    }
-    keys.into_iter()
-        .map(|(variant, integrator, mode, budget, region)| {
-            let g: Vec<&Row> = rows
-                .iter()
-                .filter(|r| {
-                    r.variant == variant
-                        && r.mode == mode
-                        && r.budget == budget
-                        && r.region == region
-                })
-                .collect();
-            let s = |f: &dyn Fn(&Row) -> f64| {
-                metrics::spread(&g.iter().map(|r| f(r)).collect::<Vec<_>>())
-            };
-            SummaryEntry {
-                repeats: g.len(),
-                spp: s(&|r| r.spp as f64),
-                seconds: s(&|r| r.seconds),
-                samples_per_second: s(&|r| r.samples_per_second),
-                mse: s(&|r| r.mse),
-                rel_mse: s(&|r| r.rel_mse),
-                snr_db: s(&|r| r.snr_db),
-                efficiency: s(&|r| r.efficiency),
-                variant,
-                integrator,
-                mode,
-                budget,
-                region,
-            }
-        })
-        .collect()
 }
 
 fn print_summary(rows: &[Row]) {
@@ -846,29 +654,6 @@ fn print_summary(rows: &[Row]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn csv_row_round_trips() {
-        let r = Row {
-            variant: "a".into(),
-            integrator: "pt-mono".into(),
-            mode: "time".into(),
-            budget: 2.5,
-            repeat: 1,
-            seed: 7,
-            spp: 12,
-            seconds: 2.5,
-            samples_per_second: 1000.0,
-            region: "floor".into(),
-            pixels: 10,
-            mse: 0.125,
-            rel_mse: 0.5,
-            snr_db: 3.25,
-            efficiency: 0.8,
-        };
-        assert_eq!(Row::from_csv(&r.to_csv()), Some(r));
-        assert_eq!(CSV_HEADER.split(',').count(), 15);
-    }
 
     #[test]
     fn quick_size_keeps_aspect() {
