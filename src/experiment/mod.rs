@@ -11,6 +11,15 @@ pub mod metrics;
 pub mod record;
 pub mod runner;
 
+// The steps of a run, which `runner` takes in the order setup, reference, regions, variants,
+// grid; `progress` is the bar they share.
+mod grid;
+mod progress;
+mod reference;
+mod regions;
+mod setup;
+mod variants;
+
 pub use config::Config;
 pub use metrics::{ErrorMetrics, compare};
 pub use record::RunInfo;

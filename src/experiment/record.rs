@@ -1,9 +1,11 @@
 //! The on-disk run record that the runner writes and the figures read: `run.json` ([`RunInfo`]),
 //! the rows of `metrics.csv` ([`Row`]), `summary.json` ([`SummaryEntry`]) and the names of the
-//! snapshot images.
+//! snapshot images; and the run folder itself (a new timestamped folder per run, atomic writes).
 
 use super::config::{BudgetMode, Config, Crop, Scanline};
 use super::metrics::{self, Spread};
+use crate::error::Error;
+use crate::film::output::write_atomic;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -215,6 +217,71 @@ pub fn summarize(rows: &[Row]) -> Vec<SummaryEntry> {
         .collect()
 }
 
+/// UTC time as `YYYYMMDD-HHMMSS`.
+pub fn timestamp() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0) as i64;
+    let (days, rem) = (secs.div_euclid(86400), secs.rem_euclid(86400));
+    // Civil from days (H. Hinnant).
+    let z = days + 719468;
+    let era = z.div_euclid(146097);
+    let doe = z - era * 146097;
+    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + if m <= 2 { 1 } else { 0 };
+    format!(
+        "{y:04}{m:02}{d:02}-{:02}{:02}{:02}",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+/// Create `p` and its parents.
+pub fn mkdir(p: &Path) -> Result<(), Error> {
+    std::fs::create_dir_all(p)
+        .map_err(|e| Error::runtime(format!("cannot create folder '{}': {e}", p.display())))
+}
+
+/// Write `text` to `p` atomically (a temporary file, then a rename).
+pub fn write_text(p: &Path, text: &str) -> Result<(), Error> {
+    write_atomic(p, |tmp| {
+        std::fs::write(tmp, text).map_err(|e| format!("cannot write '{}': {e}", p.display()))
+    })
+    .map_err(Error::runtime)
+}
+
+/// Create a new, empty run folder under `<root>/<name>/runs/`; never reuses an existing one.
+pub fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), Error> {
+    let runs = root.join(name).join("runs");
+    mkdir(&runs)?;
+    let ts = timestamp();
+    for i in 0..1000 {
+        let n = if i == 0 {
+            ts.clone()
+        } else {
+            format!("{ts}-{i}")
+        };
+        let d = runs.join(&n);
+        match std::fs::create_dir(&d) {
+            Ok(()) => return Ok((d, n)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => {
+                return Err(Error::runtime(format!(
+                    "cannot create run folder '{}': {e}",
+                    d.display()
+                )));
+            }
+        }
+    }
+    Err(Error::runtime("too many runs in the same second"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,5 +307,13 @@ mod tests {
         };
         assert_eq!(Row::from_csv(&r.to_csv()), Some(r));
         assert_eq!(CSV_HEADER.split(',').count(), 15);
+    }
+
+    #[test]
+    fn timestamp_shape() {
+        let t = timestamp();
+        assert_eq!(t.len(), 15);
+        assert_eq!(&t[8..9], "-");
+        assert!(t.starts_with("20"));
     }
 }
