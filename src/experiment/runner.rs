@@ -2,16 +2,14 @@
 //! integrators ([`Setup`]), make the run folder, get the reference, render the variants at their
 //! budgets with metrics, render the parameter grid, then write the results and figures.
 
-use super::figures;
-use super::progress;
 use super::record::{
-    GridCell, Row, RunInfo, SummaryEntry, metrics_csv, new_run_dir, summarize, timestamp,
+    GridCell, Row, RunInfo, SummaryEntry, metrics_csv, mkdir, new_run_dir, summarize, timestamp,
     write_text,
 };
 use super::regions::{self, Region};
 use super::setup::Setup;
 use super::variants::Runs;
-use super::{grid, reference};
+use super::{figures, grid, progress, reference};
 use crate::error::Error;
 use crate::film::output::write_exr;
 use std::path::{Path, PathBuf};
@@ -27,7 +25,7 @@ pub fn run_experiment(
     setup.check_integrators()?;
     let bar = progress::bar(progress::total(&setup.cfg, &setup.modes));
     let (run_dir, run_name) = new_run_dir(&setup.root, &setup.cfg.name)?;
-    super::record::mkdir(&run_dir.join("images"))?;
+    mkdir(&run_dir.join("images"))?;
     let started = timestamp();
 
     let reference = reference::get(&setup, &bar)?;
