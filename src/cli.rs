@@ -38,6 +38,15 @@ impl From<crate::scene::InputError> for CliError {
     }
 }
 
+impl From<crate::Error> for CliError {
+    fn from(e: crate::Error) -> Self {
+        CliError {
+            code: e.exit_code(),
+            message: e.message,
+        }
+    }
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene JSON file.
@@ -262,7 +271,8 @@ pub struct ExperimentArgs {
 }
 
 pub fn experiment(a: &ExperimentArgs) -> Result<(), CliError> {
-    crate::experiment::run_experiment(&a.config, a.out.as_deref(), a.quick).map(|_| ())
+    crate::experiment::run_experiment(&a.config, a.out.as_deref(), a.quick)?;
+    Ok(())
 }
 
 pub fn figures(dir: &Path) -> Result<(), CliError> {

@@ -218,6 +218,24 @@ fn unavailable_integrator_fails_cleanly_naming_it() {
     }
 }
 
+#[test]
+fn integrator_check_answers_without_rendering() {
+    use stokes::integrator::{IntegratorKind, IntegratorOptions, render::check};
+    let mut scene = stokes::scene::Scene::load(&repo().join("scenes/fluorescent-walls.json"))
+        .expect("walls scene loads");
+    let o = IntegratorOptions::default();
+    assert_eq!(check(&scene, IntegratorKind::PtMono, &o), Ok(()));
+    let bad = IntegratorOptions {
+        max_depth: 0,
+        ..o.clone()
+    };
+    let e = check(&scene, IntegratorKind::PtMono, &bad).unwrap_err();
+    assert!(e.contains("max_depth"), "{e}");
+    // The integrator's own checks run too: BDPT needs a light.
+    scene.lights.clear();
+    assert!(check(&scene, IntegratorKind::BdptForward, &o).is_err());
+}
+
 fn check_run_outputs(out: &Path, name: &str, variants: &[&str], regions: &[&str]) -> PathBuf {
     let latest = std::fs::read_to_string(out.join(name).join("latest")).expect("latest written");
     let run = out.join(name).join(latest.trim());

@@ -153,6 +153,18 @@ fn err(file: &Path, path: &str, m: impl Into<String>) -> InputError {
     InputError::new(file, path, m)
 }
 
+/// Names (of the experiment and of variants) become folder and file names.
+fn name_ok(s: &str) -> bool {
+    !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.+".contains(c))
+        && !s.starts_with('.')
+}
+
+fn bad_name(s: &str) -> String {
+    format!("must be non-empty and use only letters, digits, '-', '_', '.', '+', got {s:?}")
+}
+
 impl Config {
     /// Read, parse and validate a config file.
     pub fn load(path: &Path) -> Result<Config, InputError> {
@@ -168,22 +180,10 @@ impl Config {
         resolve(config_file, &self.scene)
     }
 
+    /// The checks serde cannot make, in field order; the first failure is returned.
     pub fn validate(&self, file: &Path) -> Result<(), InputError> {
-        let name_ok = |s: &str| {
-            !s.is_empty()
-                && s.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "-_.+".contains(c))
-                && !s.starts_with('.')
-        };
         if !name_ok(&self.name) {
-            return Err(err(
-                file,
-                "name",
-                format!(
-                    "must be non-empty and use only letters, digits, '-', '_', '.', '+', got {:?}",
-                    self.name
-                ),
-            ));
+            return Err(err(file, "name", bad_name(&self.name)));
         }
         let sp = self.scene_path(file);
         if !sp.is_file() {
@@ -193,19 +193,19 @@ impl Config {
                 format!("scene file '{}' not found", sp.display()),
             ));
         }
+        self.validate_variants(file)?;
+        self.validate_reference(file)?;
+        self.validate_budget(file)?;
+        self.validate_rest(file)
+    }
+
+    fn validate_variants(&self, file: &Path) -> Result<(), InputError> {
         if self.variants.is_empty() {
             return Err(err(file, "variants", "must list at least one variant"));
         }
         for (i, v) in self.variants.iter().enumerate() {
             if !name_ok(&v.name) {
-                return Err(err(
-                    file,
-                    &format!("variants[{i}].name"),
-                    format!(
-                        "must be non-empty and use only letters, digits, '-', '_', '.', '+', got {:?}",
-                        v.name
-                    ),
-                ));
+                return Err(err(file, &format!("variants[{i}].name"), bad_name(&v.name)));
             }
             if self.variants[..i].iter().any(|o| o.name == v.name) {
                 return Err(err(
@@ -218,90 +218,99 @@ impl Config {
                 .validate()
                 .map_err(|m| err(file, &format!("variants[{i}].options"), m))?;
         }
-        match &self.reference {
-            None if self.grid.is_none() => {
+        Ok(())
+    }
+
+    fn validate_reference(&self, file: &Path) -> Result<(), InputError> {
+        let Some(r) = &self.reference else {
+            if self.grid.is_none() {
                 return Err(err(
                     file,
                     "reference",
                     "missing field `reference` (an {\"exr\": path} or {\"integrator\", \"spp\"})",
                 ));
             }
-            None => {}
-            Some(r) => match (&r.exr, r.integrator, r.spp) {
-                (Some(p), None, None) => {
-                    let p = resolve(file, p);
-                    if !p.is_file() {
-                        return Err(err(
-                            file,
-                            "reference.exr",
-                            format!("reference image '{}' not found", p.display()),
-                        ));
-                    }
-                }
-                (None, Some(_), Some(spp)) => {
-                    if spp == 0 {
-                        return Err(err(file, "reference.spp", "must be at least 1"));
-                    }
-                    r.options
-                        .validate()
-                        .map_err(|m| err(file, "reference.options", m))?;
-                }
-                (None, None, _) => {
+            return Ok(());
+        };
+        match (&r.exr, r.integrator, r.spp) {
+            (Some(p), None, None) => {
+                let p = resolve(file, p);
+                if !p.is_file() {
                     return Err(err(
                         file,
-                        "reference",
-                        "give either `exr` or `integrator` and `spp`",
+                        "reference.exr",
+                        format!("reference image '{}' not found", p.display()),
                     ));
                 }
-                (None, Some(_), None) => {
-                    return Err(err(file, "reference.spp", "missing field `spp`"));
+            }
+            (None, Some(_), Some(spp)) => {
+                if spp == 0 {
+                    return Err(err(file, "reference.spp", "must be at least 1"));
                 }
-                (Some(_), _, _) => {
-                    return Err(err(
-                        file,
-                        "reference",
-                        "give either `exr` or `integrator` and `spp`, not both",
-                    ));
-                }
-            },
-        }
-        match (&self.budget.spp, &self.budget.seconds) {
-            (None, None) => {
+                r.options
+                    .validate()
+                    .map_err(|m| err(file, "reference.options", m))?;
+            }
+            (None, None, _) => {
                 return Err(err(
                     file,
-                    "budget",
-                    "give `spp` (a ladder such as [1, 2, 4]) and/or `seconds` (equal-time budgets)",
+                    "reference",
+                    "give either `exr` or `integrator` and `spp`",
                 ));
             }
-            (spp, secs) => {
-                if let Some(l) = spp {
-                    if l.is_empty() {
-                        return Err(err(file, "budget.spp", "must not be empty"));
-                    }
-                    if l[0] == 0 || l.windows(2).any(|w| w[1] <= w[0]) {
-                        return Err(err(
-                            file,
-                            "budget.spp",
-                            "must be positive and strictly increasing",
-                        ));
-                    }
-                }
-                if let Some(l) = secs {
-                    if l.is_empty() {
-                        return Err(err(file, "budget.seconds", "must not be empty"));
-                    }
-                    if l.iter().any(|s| !(s.is_finite() && *s > 0.0))
-                        || l.windows(2).any(|w| w[1] <= w[0])
-                    {
-                        return Err(err(
-                            file,
-                            "budget.seconds",
-                            "must be positive, finite and strictly increasing",
-                        ));
-                    }
-                }
+            (None, Some(_), None) => {
+                return Err(err(file, "reference.spp", "missing field `spp`"));
+            }
+            (Some(_), _, _) => {
+                return Err(err(
+                    file,
+                    "reference",
+                    "give either `exr` or `integrator` and `spp`, not both",
+                ));
             }
         }
+        Ok(())
+    }
+
+    fn validate_budget(&self, file: &Path) -> Result<(), InputError> {
+        let (spp, secs) = (&self.budget.spp, &self.budget.seconds);
+        if spp.is_none() && secs.is_none() {
+            return Err(err(
+                file,
+                "budget",
+                "give `spp` (a ladder such as [1, 2, 4]) and/or `seconds` (equal-time budgets)",
+            ));
+        }
+        if let Some(l) = spp {
+            if l.is_empty() {
+                return Err(err(file, "budget.spp", "must not be empty"));
+            }
+            if l[0] == 0 || l.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(err(
+                    file,
+                    "budget.spp",
+                    "must be positive and strictly increasing",
+                ));
+            }
+        }
+        if let Some(l) = secs {
+            if l.is_empty() {
+                return Err(err(file, "budget.seconds", "must not be empty"));
+            }
+            if l.iter().any(|s| !(s.is_finite() && *s > 0.0)) || l.windows(2).any(|w| w[1] <= w[0])
+            {
+                return Err(err(
+                    file,
+                    "budget.seconds",
+                    "must be positive, finite and strictly increasing",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Repeats, threads, crop, scanline and grid.
+    fn validate_rest(&self, file: &Path) -> Result<(), InputError> {
         if self.repeats == 0 || self.repeats > 1000 {
             return Err(err(file, "repeats", "must be 1–1000"));
         }

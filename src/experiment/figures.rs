@@ -4,7 +4,7 @@
 //! and the parameter-grid composite.
 
 use super::config::BudgetMode;
-use super::runner::{Row, RunInfo, image_file, read_metrics};
+use super::record::{Row, RunInfo, image_file, read_metrics};
 use crate::film::output::read_exr;
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
@@ -38,10 +38,7 @@ pub fn resolve_run_dir(dir: &Path) -> R<PathBuf> {
 /// Regenerate every figure of a run into `<run>/figures/`.
 pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
     let dir = resolve_run_dir(dir)?;
-    let info: RunInfo = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("run.json")).map_err(|e| format!("run.json: {e}"))?,
-    )
-    .map_err(|e| format!("{}: {e}", dir.join("run.json").display()))?;
+    let info = RunInfo::read(&dir)?;
     let rows = read_metrics(&dir.join("metrics.csv"))?;
     let fig = dir.join("figures");
     std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;

@@ -8,8 +8,19 @@
 pub mod config;
 pub mod figures;
 pub mod metrics;
+pub mod record;
 pub mod runner;
+
+// The steps of a run, which `runner` takes in the order setup, reference, regions, variants,
+// grid; `progress` is the bar they share.
+mod grid;
+mod progress;
+mod reference;
+mod regions;
+mod setup;
+mod variants;
 
 pub use config::Config;
 pub use metrics::{ErrorMetrics, compare};
-pub use runner::{RunInfo, run_experiment};
+pub use record::RunInfo;
+pub use runner::run_experiment;

@@ -93,6 +93,25 @@ pub fn render(
     })
 }
 
+/// Check, without rendering, that the integrator `kind` accepts `scene` with `opts`: validate the
+/// options and construct the integrator (its `new` makes the checks), then drop it.
+pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> Result<(), String> {
+    opts.validate()?;
+    match kind {
+        IntegratorKind::PtMono => super::pt::PtMono::new(scene, opts).map(drop),
+        IntegratorKind::PtHero => super::pt::PtHero::new(scene, opts).map(drop),
+        IntegratorKind::BdptForward => {
+            super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Forward).map(drop)
+        }
+        IntegratorKind::BdptBackward => {
+            super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Backward).map(drop)
+        }
+        IntegratorKind::BdptAllbins => {
+            super::bdpt::allbins::BdptAllbins::new(scene, opts).map(drop)
+        }
+    }
+}
+
 struct RowResult {
     values: Vec<Vec3>,
     splats: Vec<(u32, Vec3)>,

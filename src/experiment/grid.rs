@@ -1,0 +1,101 @@
+//! The parameter grid (Jung Fig. 7.13): the first variant rendered once per cell at the final
+//! budget of the first mode, with two parameters of one material set to the cell's values.
+
+use super::config::{BudgetMode, Grid};
+use super::progress::per_job;
+use super::record::{GridCell, mkdir};
+use super::setup::Setup;
+use crate::error::Error;
+use crate::film::output::write_exr;
+use crate::integrator::{RenderSettings, render};
+use crate::scene::Scene;
+use indicatif::ProgressBar;
+use std::path::Path;
+
+/// Render every cell of the config's grid (none without `grid`) into `<run_dir>/grid/`.
+pub fn render_cells(s: &Setup, run_dir: &Path, bar: &ProgressBar) -> Result<Vec<GridCell>, Error> {
+    let Some(g) = &s.cfg.grid else {
+        return Ok(Vec::new());
+    };
+    mkdir(&run_dir.join("grid"))?;
+    let mut cells = Vec::new();
+    for (i, rv) in g.rows.values.iter().enumerate() {
+        for (j, cv) in g.columns.values.iter().enumerate() {
+            bar.set_message(format!(
+                "grid {}={rv} {}={cv}",
+                g.rows.field, g.columns.field
+            ));
+            cells.push(render_cell(s, g, (i, *rv), (j, *cv), run_dir)?);
+            bar.inc(per_job(&s.modes[0]));
+        }
+    }
+    Ok(cells)
+}
+
+/// Cell (`i`, `j`) with the row parameter at `rv` and the column parameter at `cv`.
+fn render_cell(
+    s: &Setup,
+    g: &Grid,
+    (i, rv): (usize, f64),
+    (j, cv): (usize, f64),
+    run_dir: &Path,
+) -> Result<GridCell, Error> {
+    let v = &s.cfg.variants[0];
+    let mb = &s.modes[0];
+    let last = *mb.budgets.last().unwrap();
+    let mut scene = scene_with_override(
+        &s.scene_path,
+        &s.scene_text,
+        &g.material,
+        &[(&g.rows.field, rv), (&g.columns.field, cv)],
+    )
+    .map_err(|e| Error::input(format!("grid cell ({i}, {j}): {}", e.message)))?;
+    s.resize(&mut scene);
+    let settings = RenderSettings {
+        spp: match mb.mode {
+            BudgetMode::Spp => last as u32,
+            BudgetMode::Time => u32::MAX,
+        },
+        seed: s.cfg.seed,
+        threads: s.cfg.threads,
+        time_limit: match mb.mode {
+            BudgetMode::Spp => None,
+            BudgetMode::Time => Some(last),
+        },
+        progress: false,
+    };
+    let out = render(&scene, v.integrator, &v.options, &settings, None)
+        .map_err(|e| Error::runtime(format!("grid: {e}")))?;
+    let file = format!("grid/r{i}_c{j}.exr");
+    write_exr(&run_dir.join(&file), s.width, s.height, &out.film.rgb()).map_err(Error::runtime)?;
+    Ok(GridCell {
+        row: i,
+        column: j,
+        file,
+    })
+}
+
+/// Load a scene with parameters of one material overridden.
+fn scene_with_override(
+    path: &Path,
+    text: &str,
+    material: &str,
+    overrides: &[(&str, f64)],
+) -> Result<Scene, Error> {
+    let mut v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| Error::input(format!("{}: {e}", path.display())))?;
+    let m = v
+        .get_mut("materials")
+        .and_then(|m| m.get_mut(material))
+        .and_then(|m| m.as_object_mut())
+        .ok_or_else(|| {
+            Error::input(format!(
+                "grid.material: no material {material:?} in '{}'",
+                path.display()
+            ))
+        })?;
+    for (k, x) in overrides {
+        m.insert((*k).to_string(), serde_json::json!(x));
+    }
+    Ok(Scene::from_str(path, &v.to_string())?)
+}

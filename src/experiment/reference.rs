@@ -1,0 +1,113 @@
+//! The reference image of a run: loaded from the config's EXR (resampled to the run's
+//! resolution under `--quick`), or rendered once and cached under `<root>/references/`, keyed by
+//! a hash of everything that determines it.
+
+use super::config::{Reference, resolve};
+use super::setup::Setup;
+use crate::error::Error;
+use crate::film::output::{read_exr, write_exr};
+use crate::integrator::{RenderSettings, render};
+use glam::Vec3;
+use indicatif::ProgressBar;
+use std::path::Path;
+
+/// The run's reference image, when the config has one.
+pub fn get(s: &Setup, bar: &ProgressBar) -> Result<Option<Vec<Vec3>>, Error> {
+    let Some(r) = &s.cfg.reference else {
+        return Ok(None);
+    };
+    let img = match &r.exr {
+        Some(p) => load(s, &resolve(&s.config_path, p))?,
+        None => cached_or_rendered(s, r, bar)?,
+    };
+    Ok(Some(img))
+}
+
+/// Read the reference EXR `p`; resample it when it is at another resolution because of `--quick`.
+fn load(s: &Setup, p: &Path) -> Result<Vec<Vec3>, Error> {
+    let (w, h, fw, fh) = (s.width, s.height, s.full_width, s.full_height);
+    let (rw, rh, px) = read_exr(p).map_err(Error::input)?;
+    if (rw, rh) == (w, h) {
+        Ok(px)
+    } else if s.quick || (rw, rh) == (fw, fh) && (w, h) != (fw, fh) {
+        Ok(resample(&px, rw, rh, w, h))
+    } else {
+        Err(Error::input(format!(
+            "{}: field `reference.exr`: image is {rw}×{rh}, the scene renders {w}×{h}",
+            s.config_path.display()
+        )))
+    }
+}
+
+/// The cached render of the reference `r`, or a new render (then cached).
+fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec<Vec3>, Error> {
+    let (w, h) = (s.width, s.height);
+    let kind = r.integrator.unwrap();
+    let spp = r.spp.unwrap();
+    let cache = s
+        .root
+        .join("references")
+        .join(format!("{:016x}.exr", cache_key(s, r)));
+    if let Ok((cw, ch, px)) = read_exr(&cache)
+        && (cw, ch) == (w, h)
+    {
+        bar.inc(spp as u64);
+        return Ok(px);
+    }
+    bar.set_message(format!("reference ({}, {spp} spp)", kind.name()));
+    let settings = RenderSettings {
+        spp,
+        seed: r.seed,
+        threads: s.cfg.threads,
+        time_limit: None,
+        progress: false,
+    };
+    let b = bar.clone();
+    let mut cb = move |_: &crate::film::Film, _: &crate::integrator::Stats, _: f64| {
+        b.inc(1);
+        true
+    };
+    let out = render(&s.scene, kind, &r.options, &settings, Some(&mut cb))
+        .map_err(|e| Error::runtime(format!("reference: {e}")))?;
+    let px = out.film.rgb();
+    write_exr(&cache, w, h, &px).map_err(Error::runtime)?;
+    Ok(px)
+}
+
+/// Cache key of a rendered reference: scene text, integrator, options, spp, seed, resolution.
+fn cache_key(s: &Setup, r: &Reference) -> u64 {
+    let opts_json = serde_json::to_string(&r.options).unwrap();
+    fnv1a(&[
+        s.scene_text.as_bytes(),
+        r.integrator.unwrap().name().as_bytes(),
+        opts_json.as_bytes(),
+        r.spp.unwrap().to_string().as_bytes(),
+        r.seed.to_string().as_bytes(),
+        format!("{}x{}", s.width, s.height).as_bytes(),
+    ])
+}
+
+/// FNV-1a, stable across builds (for the reference cache key).
+fn fnv1a(parts: &[&[u8]]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for p in parts {
+        for b in p.iter().chain(&[0xffu8]) {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// Nearest-neighbour resample (for an EXR reference at another resolution under `--quick`).
+fn resample(px: &[Vec3], w: u32, h: u32, nw: u32, nh: u32) -> Vec<Vec3> {
+    let mut out = Vec::with_capacity((nw * nh) as usize);
+    for y in 0..nh {
+        for x in 0..nw {
+            let sx = ((x as f64 + 0.5) * w as f64 / nw as f64) as u32;
+            let sy = ((y as f64 + 0.5) * h as f64 / nh as f64) as u32;
+            out.push(px[(sy.min(h - 1) * w + sx.min(w - 1)) as usize]);
+        }
+    }
+    out
+}

@@ -1,0 +1,215 @@
+//! The first step of a run: the config (scaled down for `--quick`), its scene at the run's
+//! resolution, the crop and scanline in the run's pixels, the budgets per mode, and the check
+//! that every integrator named accepts the scene.
+
+use super::config::{BudgetMode, Config, Crop, Scanline};
+use super::record::ModeBudgets;
+use crate::error::Error;
+use crate::integrator::{IntegratorKind, IntegratorOptions};
+use crate::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// A loaded experiment, ready to run.
+pub struct Setup {
+    pub cfg: Config,
+    pub config_path: PathBuf,
+    pub quick: bool,
+    /// Results root: runs go to `<root>/<name>/runs/`, cached references to `<root>/references/`.
+    pub root: PathBuf,
+    pub scene_path: PathBuf,
+    /// The scene file's text (reference cache key, parameter-grid overrides).
+    pub scene_text: String,
+    /// The scene, its camera resized to `width`×`height`.
+    pub scene: Scene,
+    /// The scene's own resolution.
+    pub full_width: u32,
+    pub full_height: u32,
+    /// The run's resolution (smaller under `--quick`).
+    pub width: u32,
+    pub height: u32,
+    /// Crop and scanline in the run's pixels.
+    pub crop: Option<Crop>,
+    pub scanline: Option<Scanline>,
+    /// Budgets per mode, in snapshot order.
+    pub modes: Vec<ModeBudgets>,
+}
+
+impl Setup {
+    /// Load and check the config in `config_path` and its scene; `root` defaults to `results`
+    /// (`results/quick` with `quick`).
+    pub fn load(config_path: &Path, root: Option<&Path>, quick: bool) -> Result<Setup, Error> {
+        let mut cfg = Config::load(config_path)?;
+        if quick {
+            cfg.quicken();
+        }
+        // Quick runs default to their own root so they never become a full run's `latest`.
+        let root = root.map(Path::to_path_buf).unwrap_or_else(|| {
+            if quick {
+                "results/quick".into()
+            } else {
+                "results".into()
+            }
+        });
+        let scene_path = cfg.scene_path(config_path);
+        let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
+            Error::input(format!(
+                "{}: field `scene`: cannot read '{}': {e}",
+                config_path.display(),
+                scene_path.display()
+            ))
+        })?;
+        let mut scene = Scene::from_str(&scene_path, &scene_text)?;
+        let (fw, fh) = (scene.camera.width, scene.camera.height);
+        let (w, h) = if quick { quick_size(fw, fh) } else { (fw, fh) };
+        resize_camera(&mut scene, w, h);
+        let mut s = Setup {
+            modes: mode_budgets(&cfg),
+            cfg,
+            config_path: config_path.to_path_buf(),
+            quick,
+            root,
+            scene_path,
+            scene_text,
+            scene,
+            full_width: fw,
+            full_height: fh,
+            width: w,
+            height: h,
+            crop: None,
+            scanline: None,
+        };
+        s.crop = s.scaled_crop()?;
+        s.scanline = s.scaled_scanline()?;
+        Ok(s)
+    }
+
+    /// Run-to-full-resolution scale factors (x, y).
+    fn scale(&self) -> (f64, f64) {
+        (
+            self.width as f64 / self.full_width as f64,
+            self.height as f64 / self.full_height as f64,
+        )
+    }
+
+    /// The config's crop (in full-resolution pixels) in the run's pixels.
+    fn scaled_crop(&self) -> Result<Option<Crop>, Error> {
+        let Some(c) = self.cfg.crop else {
+            return Ok(None);
+        };
+        let (fw, fh, w, h) = (self.full_width, self.full_height, self.width, self.height);
+        if c.x + c.w > fw || c.y + c.h > fh {
+            return Err(Error::input(format!(
+                "{}: field `crop`: {}×{} at ({}, {}) exceeds the {fw}×{fh} image",
+                self.config_path.display(),
+                c.w,
+                c.h,
+                c.x,
+                c.y
+            )));
+        }
+        let (sx, sy) = self.scale();
+        let x = ((c.x as f64 * sx) as u32).min(w - 1);
+        let y = ((c.y as f64 * sy) as u32).min(h - 1);
+        Ok(Some(Crop {
+            x,
+            y,
+            w: ((c.w as f64 * sx).round() as u32).clamp(1, w - x),
+            h: ((c.h as f64 * sy).round() as u32).clamp(1, h - y),
+        }))
+    }
+
+    /// The config's scanline (in full-resolution pixels) in the run's pixels.
+    fn scaled_scanline(&self) -> Result<Option<Scanline>, Error> {
+        let Some(s) = self.cfg.scanline else {
+            return Ok(None);
+        };
+        let (fw, fh, w, h) = (self.full_width, self.full_height, self.width, self.height);
+        if s.row.is_some_and(|r| r >= fh) || s.column.is_some_and(|c| c >= fw) {
+            return Err(Error::input(format!(
+                "{}: field `scanline`: outside the {fw}×{fh} image",
+                self.config_path.display()
+            )));
+        }
+        let (sx, sy) = self.scale();
+        Ok(Some(Scanline {
+            row: s.row.map(|r| ((r as f64 * sy) as u32).min(h - 1)),
+            column: s.column.map(|c| ((c as f64 * sx) as u32).min(w - 1)),
+        }))
+    }
+
+    /// Fail before rendering, naming the variant and integrator, when an integrator of a
+    /// variant or of the reference does not accept the scene or its options.
+    pub fn check_integrators(&self) -> Result<(), Error> {
+        for v in &self.cfg.variants {
+            self.check(v.integrator, &v.options, &format!("variant `{}`", v.name))?;
+        }
+        if let Some(r) = &self.cfg.reference
+            && let Some(k) = r.integrator
+        {
+            self.check(k, &r.options, "reference")?;
+        }
+        Ok(())
+    }
+
+    fn check(
+        &self,
+        kind: IntegratorKind,
+        opts: &IntegratorOptions,
+        what: &str,
+    ) -> Result<(), Error> {
+        crate::integrator::render::check(&self.scene, kind, opts)
+            .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
+    }
+
+    /// Give `scene` (e.g. a parameter-grid variant of this one) the run's resolution.
+    pub fn resize(&self, scene: &mut Scene) {
+        resize_camera(scene, self.width, self.height);
+    }
+}
+
+fn resize_camera(scene: &mut Scene, w: u32, h: u32) {
+    scene.camera.width = w;
+    scene.camera.height = h;
+}
+
+/// Resolution used by `--quick`: at most 64×48, keeping the aspect ratio.
+pub fn quick_size(w: u32, h: u32) -> (u32, u32) {
+    let s = (64.0 / w as f64).min(48.0 / h as f64).min(1.0);
+    (
+        ((w as f64 * s).round() as u32).max(1),
+        ((h as f64 * s).round() as u32).max(1),
+    )
+}
+
+/// The config's budgets per mode (spp ladder first, then seconds).
+fn mode_budgets(cfg: &Config) -> Vec<ModeBudgets> {
+    cfg.modes()
+        .iter()
+        .map(|&m| ModeBudgets {
+            mode: m,
+            budgets: match m {
+                BudgetMode::Spp => cfg
+                    .budget
+                    .spp
+                    .as_ref()
+                    .unwrap()
+                    .iter()
+                    .map(|&s| s as f64)
+                    .collect(),
+                BudgetMode::Time => cfg.budget.seconds.clone().unwrap(),
+            },
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_size_keeps_aspect() {
+        assert_eq!(quick_size(256, 256), (48, 48));
+        assert_eq!(quick_size(640, 480), (64, 48));
+        assert_eq!(quick_size(32, 16), (32, 16));
+    }
+}
