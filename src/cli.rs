@@ -1,5 +1,7 @@
-//! Command implementations behind `main.rs`, kept in the library so tests can call them.
+//! Command implementations behind `main.rs`, kept in the library so tests can call them. Errors
+//! are the library's [`Error`]; `main.rs` turns its kind into the exit code.
 
+use crate::Error;
 use crate::film::{write_exr, write_png};
 use crate::integrator::{
     IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
@@ -9,43 +11,6 @@ use crate::scene::Scene;
 use crate::spectrum::cie::CameraWavelengths;
 use clap::Args;
 use std::path::{Path, PathBuf};
-
-/// An error with the process exit code: 2 for bad input, 1 for failures while running.
-#[derive(Debug)]
-pub struct CliError {
-    pub code: u8,
-    pub message: String,
-}
-
-impl CliError {
-    pub fn input(m: impl Into<String>) -> Self {
-        CliError {
-            code: 2,
-            message: m.into(),
-        }
-    }
-    pub fn runtime(m: impl Into<String>) -> Self {
-        CliError {
-            code: 1,
-            message: m.into(),
-        }
-    }
-}
-
-impl From<crate::scene::InputError> for CliError {
-    fn from(e: crate::scene::InputError) -> Self {
-        CliError::input(e.to_string())
-    }
-}
-
-impl From<crate::Error> for CliError {
-    fn from(e: crate::Error) -> Self {
-        CliError {
-            code: e.exit_code(),
-            message: e.message,
-        }
-    }
-}
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -125,7 +90,7 @@ impl RenderArgs {
 }
 
 /// Load a scene and print its warnings.
-pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, CliError> {
+pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, Error> {
     let scene = Scene::load(path)?;
     if !quiet {
         for w in &scene.warnings {
@@ -135,26 +100,26 @@ pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, CliError> {
     Ok(scene)
 }
 
-pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), CliError> {
+pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), Error> {
     if a.spp == 0 {
-        return Err(CliError::input("--spp must be at least 1"));
+        return Err(Error::input("--spp must be at least 1"));
     }
     if let Some(t) = a.time_limit
         && !(t > 0.0 && t.is_finite())
     {
-        return Err(CliError::input(format!(
+        return Err(Error::input(format!(
             "--time-limit must be a positive number of seconds, got {t}"
         )));
     }
     if a.threads == Some(0) {
-        return Err(CliError::input("--threads must be at least 1"));
+        return Err(Error::input("--threads must be at least 1"));
     }
     a.options()
         .validate()
-        .map_err(|m| CliError::input(format!("option {m}")))
+        .map_err(|m| Error::input(format!("option {m}")))
 }
 
-pub fn render(a: &RenderArgs) -> Result<(), CliError> {
+pub fn render(a: &RenderArgs) -> Result<(), Error> {
     render_cmd_validate(a)?;
     let scene = load_scene(&a.scene, a.quiet)?;
     let settings = RenderSettings {
@@ -166,17 +131,17 @@ pub fn render(a: &RenderArgs) -> Result<(), CliError> {
     };
     let opts = a.options();
     let out = crate::integrator::render(&scene, a.integrator, &opts, &settings, None)
-        .map_err(CliError::input)?;
+        .map_err(Error::input)?;
     let (w, h) = (out.film.width, out.film.height);
     let rgb = out.film.rgb();
-    write_exr(&a.output, w, h, &rgb).map_err(CliError::runtime)?;
+    write_exr(&a.output, w, h, &rgb).map_err(Error::runtime)?;
     if let Some(p) = &a.png {
-        write_png(p, w, h, &rgb, a.exposure).map_err(CliError::runtime)?;
+        write_png(p, w, h, &rgb, a.exposure).map_err(Error::runtime)?;
     }
     if let Some(dir) = &a.strategy_images {
         for (i, name) in out.film.aux_names.iter().enumerate() {
             write_exr(&dir.join(format!("{name}.exr")), w, h, &out.film.aux_rgb(i))
-                .map_err(CliError::runtime)?;
+                .map_err(Error::runtime)?;
         }
     }
     if let Some(p) = &a.stats {
@@ -185,7 +150,7 @@ pub fn render(a: &RenderArgs) -> Result<(), CliError> {
             std::fs::write(tmp, serde_json::to_string_pretty(&json).unwrap())
                 .map_err(|e| format!("cannot write stats '{}': {e}", p.display()))
         })
-        .map_err(CliError::runtime)?;
+        .map_err(Error::runtime)?;
     }
     eprintln!(
         "{}: {} spp in {:.2} s ({:.3} M samples/s), {} NaN/Inf rejected",
@@ -222,7 +187,7 @@ pub fn stats_json(
     })
 }
 
-pub fn inspect(path: &Path) -> Result<(), CliError> {
+pub fn inspect(path: &Path) -> Result<(), Error> {
     let s = load_scene(path, false)?;
     println!("scene: {}", path.display());
     println!(
@@ -270,14 +235,14 @@ pub struct ExperimentArgs {
     pub quick: bool,
 }
 
-pub fn experiment(a: &ExperimentArgs) -> Result<(), CliError> {
+pub fn experiment(a: &ExperimentArgs) -> Result<(), Error> {
     crate::experiment::run_experiment(&a.config, a.out.as_deref(), a.quick)?;
     Ok(())
 }
 
-pub fn figures(dir: &Path) -> Result<(), CliError> {
-    let run = crate::experiment::figures::resolve_run_dir(dir).map_err(CliError::input)?;
-    let files = crate::experiment::figures::make_all(&run).map_err(CliError::runtime)?;
+pub fn figures(dir: &Path) -> Result<(), Error> {
+    let run = crate::experiment::figures::resolve_run_dir(dir).map_err(Error::input)?;
+    let files = crate::experiment::figures::make_all(&run).map_err(Error::runtime)?;
     for f in files {
         println!("{}", f.display());
     }

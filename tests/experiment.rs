@@ -232,7 +232,7 @@ fn integrator_check_answers_without_rendering() {
     let e = check(&scene, IntegratorKind::PtMono, &bad).unwrap_err();
     assert!(e.contains("max_depth"), "{e}");
     // The integrator's own checks run too: BDPT needs a light.
-    scene.lights.clear();
+    scene.lights = stokes::scene::LightSet::default();
     assert!(check(&scene, IntegratorKind::BdptForward, &o).is_err());
 }
 

@@ -19,7 +19,15 @@ const SIZE: u32 = 24;
 fn small(name: &str) -> Scene {
     let mut s = Scene::load(Path::new(&format!("scenes/{name}.json"))).unwrap();
     let c = &s.camera;
-    s.camera = Camera::look_at(c.origin, c.origin + c.forward, c.up, 39.3077, true, SIZE, SIZE);
+    s.camera = Camera::look_at(
+        c.origin,
+        c.origin + c.forward,
+        c.up,
+        39.3077,
+        true,
+        SIZE,
+        SIZE,
+    );
     s
 }
 
@@ -76,7 +84,11 @@ fn pixel_sums_match_the_pinned_values() {
                     .iter()
                     .map(|v| format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z))
                     .collect();
-                println!("    (\"{scene_name}\", \"{}\", [{}]),", kind.name(), q.join(", "));
+                println!(
+                    "    (\"{scene_name}\", \"{}\", [{}]),",
+                    kind.name(),
+                    q.join(", ")
+                );
                 continue;
             }
             let pin = PINS

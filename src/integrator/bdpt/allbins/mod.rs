@@ -161,13 +161,10 @@ impl BdptAllbins {
 impl BdptAllbins {
     /// MIS weight of (s, t), or 1 when a single strategy is selected.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
     fn weight(
         &self,
         scene: &Scene,
-        h: MisHeuristic,
-        light: &[Vertex],
-        camera: &[Vertex],
+        sc: &Scratch,
         s: usize,
         t: usize,
         sampled: Option<&Vertex>,
@@ -175,8 +172,224 @@ impl BdptAllbins {
         if self.only.is_some() {
             1.0
         } else {
-            mis::weight(scene, h, light, camera, s, t, sampled)
+            mis::weight(scene, self.mis, &sc.light, &sc.camera, s, t, sampled)
         }
+    }
+
+    /// Camera sub-path z0 …: rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
+    fn trace_camera(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        sc: &mut Scratch,
+    ) -> u64 {
+        let n = self.grid.len();
+        let max_depth = self.max_depth;
+        let Scratch {
+            camera,
+            rows,
+            rows_support,
+            ..
+        } = sc;
+        camera.clear();
+        let (mut z0, ray, pdf_cam) = Vertex::camera(scene, x, y);
+        z0.data.beta = 1.0;
+        camera.push(z0);
+        rows[..3 * n].copy_from_slice(&self.w);
+        rows_support[0] = self.w_support;
+        let mut rays = 0u64;
+        random_walk(
+            scene,
+            ray,
+            pdf_cam,
+            camera,
+            max_depth + 1,
+            sampler,
+            &mut rays,
+            |verts, _| {
+                let j = verts.len() - 1;
+                verts[j].data.beta = 1.0;
+                let m = verts[j].material;
+                // The last vertex (j = max_depth) is only used by s = 0.
+                if m == NONE || j >= max_depth {
+                    return Step::Stop;
+                }
+                let (prev, cur) = rows.split_at_mut(j * 3 * n);
+                let prev = &prev[(j - 1) * 3 * n..];
+                let cur = &mut cur[..3 * n];
+                rows_support[j] =
+                    self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
+                if rows_support[j].is_empty() {
+                    Step::Stop
+                } else {
+                    Step::Continue
+                }
+            },
+        );
+        rays
+    }
+
+    /// Light sub-path y0 …: spec[i] = M_i · spec[i−1], spec[0] = Le.
+    fn trace_light(&self, scene: &Scene, sampler: &mut Sampler, sc: &mut Scratch) -> u64 {
+        let n = self.grid.len();
+        let Scratch {
+            light,
+            spec,
+            spec_support,
+            ..
+        } = sc;
+        light.clear();
+        if self.max_depth < 2 {
+            return 0;
+        }
+        let y0 = sample_light_vertex(scene, sampler);
+        let l = y0.light as usize;
+        let e = scene.lights.sample_le_direction(l, y0.n, sampler.next2());
+        let (lray, pdf_dir) = (spawn_ray(y0.p, y0.n, e.w), e.pdf_dir);
+        // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
+        let beta_out = e.weight / y0.pdf_fwd;
+        spec[..n].copy_from_slice(&self.le[l]);
+        spec_support[0] = self.le_support[l];
+        light.push(y0);
+        let mut rays = 0u64;
+        random_walk(
+            scene,
+            lray,
+            pdf_dir,
+            light,
+            self.max_depth,
+            sampler,
+            &mut rays,
+            |verts, _| {
+                let i = verts.len() - 1;
+                let m = verts[i].material;
+                if m == NONE {
+                    // Black: cannot scatter or connect.
+                    return Step::Discard;
+                }
+                verts[i].data.beta = beta_out;
+                let (prev, cur) = spec.split_at_mut(i * n);
+                let cur = &mut cur[..n];
+                // Stop once the spectrum is zero in every bin (Jung 8.2).
+                spec_support[i] =
+                    self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
+                if spec_support[i].is_empty() {
+                    Step::Stop
+                } else {
+                    Step::Continue
+                }
+            },
+        );
+        rays
+    }
+
+    /// s = 0: the camera sub-path's vertex z(t−1) is an emitter; the weighted contribution.
+    fn emitter_hit(&self, scene: &Scene, sc: &Scratch, t: usize) -> Option<Vec3> {
+        let n = self.grid.len();
+        let z = &sc.camera[t - 1];
+        if !z.is_emitter() {
+            return None;
+        }
+        let on = sc.rows_support[t - 2].intersect(self.le_support[z.light as usize]);
+        let zp = &sc.camera[t - 2];
+        if on.is_empty() || !scene.lights[z.light as usize].emits_towards(z.n, zp.p - z.p) {
+            return None;
+        }
+        let q = &sc.rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
+        let c = dot3_on(q, &self.le[z.light as usize], on) * z.data.beta;
+        (c != Vec3::ZERO).then(|| c * self.weight(scene, sc, 0, t, None))
+    }
+
+    /// t = 1: connect the light vertex y(s−1) to the pinhole; the weighted contribution and its
+    /// film position.
+    fn light_tracing(
+        &self,
+        scene: &Scene,
+        sc: &Scratch,
+        s: usize,
+        rays: &mut u64,
+    ) -> Option<(f32, f32, Vec3)> {
+        let n = self.grid.len();
+        let cam = &scene.camera;
+        let yv = &sc.light[s - 1];
+        let on = self.w_support.intersect(sc.spec_support[s - 1]);
+        if yv.material == NONE || on.is_empty() {
+            return None;
+        }
+        let zc = camera_vertex(scene);
+        let (wdir, dist2) = zc.towards(yv);
+        let (px, py, cos) = cam.project(wdir)?;
+        let fy = f_dir(scene, yv, sc.light.get(s.wrapping_sub(2)), cam.origin);
+        if fy == 0.0 {
+            return None;
+        }
+        let g = cos * yv.abs_cos(wdir) / dist2;
+        let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
+        let c = dot3_on(&self.w, &sc.spec[(s - 1) * n..s * n], on) * scal;
+        // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
+        if c == Vec3::ZERO || transmittance(scene, yv.endpoint(), zc.endpoint(), rays).is_zero() {
+            return None;
+        }
+        Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc))))
+    }
+
+    /// s ≥ 1, t ≥ 2: connect z(t−1) to y(s−1) (s = 1: a fresh light point, sampler: four
+    /// values); the weighted contribution.
+    fn connect(
+        &self,
+        scene: &Scene,
+        sc: &Scratch,
+        s: usize,
+        t: usize,
+        sampler: &mut Sampler,
+        rays: &mut u64,
+    ) -> Option<Vec3> {
+        let n = self.grid.len();
+        let z = &sc.camera[t - 1];
+        if z.material == NONE || sc.rows_support[t - 1].is_empty() {
+            return None;
+        }
+        if s >= 2
+            && sc.rows_support[t - 1]
+                .intersect(sc.spec_support[s - 1])
+                .is_empty()
+        {
+            return None;
+        }
+        let zp = &sc.camera[t - 2];
+        let q = &sc.rows[(t - 1) * 3 * n..t * 3 * n];
+        let sampled;
+        let (yv, ys, ysup, yprev): (&Vertex, &[f32], Support, Option<&Vertex>) = if s == 1 {
+            sampled = sample_light_vertex(scene, sampler);
+            let l = sampled.light as usize;
+            (&sampled, &self.le[l], self.le_support[l], None)
+        } else {
+            let ys = &sc.spec[(s - 1) * n..s * n];
+            (
+                &sc.light[s - 1],
+                ys,
+                sc.spec_support[s - 1],
+                sc.light.get(s.wrapping_sub(2)),
+            )
+        };
+        let on = sc.rows_support[t - 1].intersect(ysup);
+        if on.is_empty() || (yv.kind == VertexKind::Surface && yv.material == NONE) {
+            return None;
+        }
+        let fz = f_dir(scene, z, Some(zp), yv.p);
+        let fy = f_dir(scene, yv, yprev, z.p);
+        let scal = fz * fy * geometry(z, yv) * z.data.beta * yv.data.beta;
+        if scal == 0.0 {
+            return None;
+        }
+        let c = dot3_on(q, ys, on) * scal;
+        // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
+        if c == Vec3::ZERO || transmittance(scene, z.endpoint(), yv.endpoint(), rays).is_zero() {
+            return None;
+        }
+        Some(c * self.weight(scene, sc, s, t, if s == 1 { Some(yv) } else { None }))
     }
 }
 
@@ -212,233 +425,45 @@ impl Integrator for BdptAllbins {
         sc: &mut Scratch,
         sink: &mut SampleSink,
     ) {
-        let n = self.grid.len();
-        let max_depth = self.max_depth;
-        let Scratch {
-            light,
-            camera,
-            spec,
-            rows,
-            spec_support,
-            rows_support,
-        } = sc;
-
-        // Camera sub-path z0 … : rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
-        camera.clear();
-        let cam = &scene.camera;
-        let (mut z0, ray, pdf_cam) = Vertex::camera(scene, x, y);
-        z0.data.beta = 1.0;
-        camera.push(z0);
-        rows[..3 * n].copy_from_slice(&self.w);
-        rows_support[0] = self.w_support;
-        let mut rays = 0u64;
-        random_walk(
-            scene,
-            ray,
-            pdf_cam,
-            camera,
-            max_depth + 1,
-            sampler,
-            &mut rays,
-            |verts, _| {
-                let j = verts.len() - 1;
-                verts[j].data.beta = 1.0;
-                let m = verts[j].material;
-                // The last vertex (j = max_depth) is only used by s = 0.
-                if m == NONE || j >= max_depth {
-                    return Step::Stop;
-                }
-                let (prev, cur) = rows.split_at_mut(j * 3 * n);
-                let prev = &prev[(j - 1) * 3 * n..];
-                let cur = &mut cur[..3 * n];
-                rows_support[j] =
-                    self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
-                if rows_support[j].is_empty() {
-                    Step::Stop
-                } else {
-                    Step::Continue
-                }
-            },
-        );
-
-        // Light sub-path y0 … : spec[i] = M_i · spec[i−1], spec[0] = Le.
-        light.clear();
-        if max_depth >= 2 {
-            let y0 = sample_light_vertex(scene, sampler);
-            let l = y0.light as usize;
-            let e = scene.lights.sample_le_direction(l, y0.n, sampler.next2());
-            let (lray, pdf_dir) = (spawn_ray(y0.p, y0.n, e.w), e.pdf_dir);
-            // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
-            let beta_out = e.weight / y0.pdf_fwd;
-            spec[..n].copy_from_slice(&self.le[l]);
-            spec_support[0] = self.le_support[l];
-            light.push(y0);
-            random_walk(
-                scene,
-                lray,
-                pdf_dir,
-                light,
-                max_depth,
-                sampler,
-                &mut rays,
-                |verts, _| {
-                    let i = verts.len() - 1;
-                    let m = verts[i].material;
-                    if m == NONE {
-                        // Black: cannot scatter or connect.
-                        return Step::Discard;
-                    }
-                    verts[i].data.beta = beta_out;
-                    let (prev, cur) = spec.split_at_mut(i * n);
-                    let cur = &mut cur[..n];
-                    // Stop once the spectrum is zero in every bin (Jung 8.2).
-                    spec_support[i] =
-                        self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
-                    if spec_support[i].is_empty() {
-                        Step::Stop
-                    } else {
-                        Step::Continue
-                    }
-                },
-            );
-        }
-
+        let mut rays = self.trace_camera(scene, x, y, sampler, sc);
+        rays += self.trace_light(scene, sampler, sc);
         let mut value = Vec3::ZERO;
-        for t in 1..=camera.len() {
-            for s in 0..=light.len() {
+        for t in 1..=sc.camera.len() {
+            for s in 0..=sc.light.len() {
                 let segments = s + t - 1;
-                if segments == 0 || segments > max_depth || (s == 1 && t == 1) {
+                if segments == 0 || segments > self.max_depth || (s == 1 && t == 1) {
                     continue;
                 }
                 if self.only.is_some_and(|o| o != (s, t)) {
                     continue;
                 }
-                if s == 0 {
-                    // Camera sub-path hit an emitter.
-                    let z = &camera[t - 1];
-                    if !z.is_emitter() {
-                        continue;
-                    }
-                    let on = rows_support[t - 2].intersect(self.le_support[z.light as usize]);
-                    if on.is_empty() {
-                        continue;
-                    }
-                    let zp = &camera[t - 2];
-                    if !scene.lights[z.light as usize].emits_towards(z.n, zp.p - z.p) {
-                        continue;
-                    }
-                    let q = &rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
-                    let c = dot3_on(q, &self.le[z.light as usize], on) * z.data.beta;
-                    if c == Vec3::ZERO {
-                        continue;
-                    }
-                    let w = self.weight(scene, self.mis, light, camera, 0, t, None);
-                    value += c * w;
-                    if self.strategy_images {
-                        // bdpt's layer order: (camera vertices, light vertices)
-                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
-                    }
-                    sink.stats.contribution(segments);
-                } else if t == 1 {
-                    // Light tracing: connect y_{s−1} to the pinhole and splat.
-                    let yv = &light[s - 1];
-                    let on = self.w_support.intersect(spec_support[s - 1]);
-                    if yv.material == NONE || on.is_empty() {
-                        continue;
-                    }
-                    let d = cam.origin - yv.p;
-                    let dist2 = d.length_squared();
-                    let wdir = -d / dist2.sqrt();
-                    let Some((px, py, cos)) = cam.project(wdir) else {
+                // bdpt's strategy-image order: (camera vertices, light vertices)
+                let layer = strategy_layer(t, s);
+                if t == 1 {
+                    let Some((px, py, c)) = self.light_tracing(scene, sc, s, &mut rays) else {
                         continue;
                     };
-                    let fy = f_dir(scene, yv, light.get(s.wrapping_sub(2)), cam.origin);
-                    if fy == 0.0 {
-                        continue;
-                    }
-                    let g = cos * yv.abs_cos(wdir) / dist2;
-                    let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
-                    let c = dot3_on(&self.w, &spec[(s - 1) * n..s * n], on) * scal;
-                    if c == Vec3::ZERO {
-                        continue;
-                    }
-                    let zc = camera_vertex(scene);
-                    // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
-                    if transmittance(scene, yv.endpoint(), zc.endpoint(), &mut rays).is_zero() {
-                        continue;
-                    }
-                    let w = self.weight(scene, self.mis, light, camera, s, 1, Some(&zc));
-                    if sink.splat(px, py, c * w) {
+                    if sink.splat(px, py, c) {
                         if self.strategy_images {
                             let pix = (py as u32).min(sink.height - 1) * sink.width
                                 + (px as u32).min(sink.width - 1);
-                            sink.aux(strategy_layer(1, s), pix, c * w);
+                            sink.aux(layer, pix, c);
                         }
                         sink.stats.contribution(segments);
                     }
-                } else {
-                    let z = &camera[t - 1];
-                    if z.material == NONE || rows_support[t - 1].is_empty() {
-                        continue;
-                    }
-                    if s >= 2
-                        && rows_support[t - 1]
-                            .intersect(spec_support[s - 1])
-                            .is_empty()
-                    {
-                        continue;
-                    }
-                    let zp = &camera[t - 2];
-                    let q = &rows[(t - 1) * 3 * n..t * 3 * n];
-                    let sampled;
-                    let (yv, ys, ysup, yprev): (&Vertex, &[f32], Support, Option<&Vertex>) =
-                        if s == 1 {
-                            sampled = sample_light_vertex(scene, sampler);
-                            let l = sampled.light as usize;
-                            (&sampled, &self.le[l], self.le_support[l], None)
-                        } else {
-                            (
-                                &light[s - 1],
-                                &spec[(s - 1) * n..s * n],
-                                spec_support[s - 1],
-                                light.get(s.wrapping_sub(2)),
-                            )
-                        };
-                    let on = rows_support[t - 1].intersect(ysup);
-                    if on.is_empty() {
-                        continue;
-                    }
-                    if yv.kind == VertexKind::Surface && yv.material == NONE {
-                        continue;
-                    }
-                    let fz = f_dir(scene, z, Some(zp), yv.p);
-                    let fy = f_dir(scene, yv, yprev, z.p);
-                    let scal = fz * fy * geometry(z, yv) * z.data.beta * yv.data.beta;
-                    if scal == 0.0 {
-                        continue;
-                    }
-                    let c = dot3_on(q, ys, on) * scal;
-                    if c == Vec3::ZERO
-                        || transmittance(scene, z.endpoint(), yv.endpoint(), &mut rays).is_zero()
-                    {
-                        continue;
-                    }
-                    let w = self.weight(
-                        scene,
-                        self.mis,
-                        light,
-                        camera,
-                        s,
-                        t,
-                        if s == 1 { Some(yv) } else { None },
-                    );
-                    value += c * w;
-                    if self.strategy_images {
-                        // bdpt's layer order: (camera vertices, light vertices)
-                        sink.aux(strategy_layer(t, s), sink.pixel, c * w);
-                    }
-                    sink.stats.contribution(segments);
+                    continue;
                 }
+                let c = if s == 0 {
+                    self.emitter_hit(scene, sc, t)
+                } else {
+                    self.connect(scene, sc, s, t, sampler, &mut rays)
+                };
+                let Some(c) = c else { continue };
+                value += c;
+                if self.strategy_images {
+                    sink.aux(layer, sink.pixel, c);
+                }
+                sink.stats.contribution(segments);
             }
         }
         sink.stats.rays += rays;
