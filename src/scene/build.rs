@@ -2,8 +2,10 @@
 //! domain and camera checks, spectra and materials, shapes (triangles, spheres, OBJ files) and
 //! their lights, the light selection distribution, and the acceleration structure.
 
-use super::error::{from_json_str, from_json_value};
-use super::format::{CameraDesc, FovAxis, MaterialDesc, SceneFile, ShapeDesc, ShapeKind};
+use super::error::from_json_value;
+use super::format::{
+    self, CameraDesc, EmissionDesc, FovAxis, MaterialDesc, ShapeDesc, ShapeGeometry,
+};
 use super::lights::{AreaLight, LightShape};
 use super::spectra::SpectrumContext;
 use super::{InputError, NONE, PrimInfo, Scene, ShapeInfo};
@@ -17,7 +19,7 @@ use std::path::Path;
 /// Parse and validate the scene `text` of file `path` (which names the file in errors and
 /// resolves relative paths).
 pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
-    let f: SceneFile = from_json_str(path, text)?;
+    let (f, shape_descs) = format::read(path, text)?;
     let mut warnings = Vec::new();
     let domain = domain(path, f.domain)?;
     let observer = Observer::new(domain);
@@ -52,8 +54,8 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
 
     // Shapes and lights.
     let mut b = Builder::default();
-    for (si, s) in f.shapes.iter().enumerate() {
-        b.add_shape(path, &ctx.dir, si, s, &ctx, &material_names, domain)?;
+    for (si, s) in shape_descs.iter().enumerate() {
+        b.add_shape(&ctx, &material_names, si, s)?;
     }
     if b.lights.is_empty() {
         return Err(at(
@@ -287,31 +289,26 @@ struct Builder {
     lights: Vec<AreaLight>,
 }
 
+/// An error at field `field` of the shape at JSON path `base` (the shape itself if empty).
+fn shape_err(file: &Path, base: &str, field: &str, m: String) -> InputError {
+    if field.is_empty() {
+        InputError::new(file, base, m)
+    } else {
+        InputError::new(file, format!("{base}.{field}"), m)
+    }
+}
+
 impl Builder {
     /// Add shape number `si`, `s`, with its light if it emits.
-    #[allow(clippy::too_many_arguments)]
     fn add_shape(
         &mut self,
-        file: &Path,
-        dir: &Path,
-        si: usize,
-        s: &ShapeDesc,
         ctx: &SpectrumContext,
         material_names: &[String],
-        domain: Domain,
+        si: usize,
+        s: &ShapeDesc,
     ) -> Result<(), InputError> {
         let base = format!("shapes[{si}]");
-        let err = |p: &str, m: String| {
-            InputError::new(
-                file,
-                if p.is_empty() {
-                    base.clone()
-                } else {
-                    format!("{base}.{p}")
-                },
-                m,
-            )
-        };
+        let err = |p: &str, m: String| shape_err(ctx.file, &base, p, m);
         let material = match &s.material {
             None => NONE,
             Some(name) => material_names
@@ -351,152 +348,8 @@ impl Builder {
             shape: shape_id,
         };
 
-        // Fields not used by this kind are errors, so typos do not pass silently.
-        let used: &[&str] = match s.kind {
-            ShapeKind::Quad => &["corners"],
-            ShapeKind::Box => &["min", "max"],
-            ShapeKind::Sphere => &["center", "radius"],
-            ShapeKind::Triangles => &["vertices", "indices"],
-            ShapeKind::Obj => &["file", "scale", "translate"],
-        };
-        let present = [
-            ("corners", s.corners.is_some()),
-            ("min", s.min.is_some()),
-            ("max", s.max.is_some()),
-            ("center", s.center.is_some()),
-            ("radius", s.radius.is_some()),
-            ("vertices", s.vertices.is_some()),
-            ("indices", s.indices.is_some()),
-            ("file", s.file.is_some()),
-            ("scale", s.scale.is_some()),
-            ("translate", s.translate.is_some()),
-        ];
-        for (f, p) in present {
-            if p && !used.contains(&f) {
-                return Err(err(
-                    f,
-                    format!(
-                        "not a field of a {:?} shape (fields: {})",
-                        s.kind,
-                        used.join(", ")
-                    ),
-                ));
-            }
-        }
-        let need = |o: bool, f: &str| {
-            if o {
-                Ok(())
-            } else {
-                Err(err(f, format!("required for a {:?} shape", s.kind)))
-            }
-        };
-
         let first_tri = self.triangles.len();
-        let mut tris: Vec<Triangle> = Vec::new();
-        let mut sphere: Option<Sphere> = None;
-        match s.kind {
-            ShapeKind::Quad => {
-                need(s.corners.is_some(), "corners")?;
-                let c = s.corners.unwrap();
-                let p: Vec<Vec3> = c
-                    .iter()
-                    .enumerate()
-                    .map(|(i, x)| finite3(file, &format!("{base}.corners[{i}]"), *x))
-                    .collect::<Result<_, _>>()?;
-                tris.push(Triangle::new(p[0], p[1], p[2]));
-                tris.push(Triangle::new(p[0], p[2], p[3]));
-            }
-            ShapeKind::Box => {
-                need(s.min.is_some(), "min")?;
-                need(s.max.is_some(), "max")?;
-                let lo = finite3(file, &format!("{base}.min"), s.min.unwrap())?;
-                let hi = finite3(file, &format!("{base}.max"), s.max.unwrap())?;
-                if !(lo.cmplt(hi).all()) {
-                    return Err(err(
-                        "max",
-                        format!("box needs min < max on every axis, got {lo} and {hi}"),
-                    ));
-                }
-                tris.extend(box_triangles(lo, hi));
-            }
-            ShapeKind::Sphere => {
-                need(s.center.is_some(), "center")?;
-                need(s.radius.is_some(), "radius")?;
-                let c = finite3(file, &format!("{base}.center"), s.center.unwrap())?;
-                let r = s.radius.unwrap();
-                if !(r > 0.0 && r.is_finite()) {
-                    return Err(err("radius", format!("must be a positive number, got {r}")));
-                }
-                sphere = Some(Sphere {
-                    center: c,
-                    radius: r,
-                });
-            }
-            ShapeKind::Triangles => {
-                need(s.vertices.is_some(), "vertices")?;
-                need(s.indices.is_some(), "indices")?;
-                let v = s.vertices.as_ref().unwrap();
-                for (i, x) in v.iter().enumerate() {
-                    finite3(file, &format!("{base}.vertices[{i}]"), *x)?;
-                }
-                for (k, idx) in s.indices.as_ref().unwrap().iter().enumerate() {
-                    if let Some(bad) = idx.iter().find(|&&i| i as usize >= v.len()) {
-                        return Err(err(
-                            &format!("indices[{k}]"),
-                            format!("index {bad} out of range ({} vertices)", v.len()),
-                        ));
-                    }
-                    tris.push(Triangle::new(
-                        v3(v[idx[0] as usize]),
-                        v3(v[idx[1] as usize]),
-                        v3(v[idx[2] as usize]),
-                    ));
-                }
-            }
-            ShapeKind::Obj => {
-                need(s.file.is_some(), "file")?;
-                let full = dir.join(s.file.as_ref().unwrap());
-                let scale = s.scale.unwrap_or(1.0);
-                let tr = v3(s.translate.unwrap_or([0.0; 3]));
-                if !(scale.is_finite() && scale != 0.0) {
-                    return Err(err(
-                        "scale",
-                        format!("must be a non-zero finite number, got {scale}"),
-                    ));
-                }
-                let (models, _) = tobj::load_obj(
-                    &full,
-                    &tobj::LoadOptions {
-                        triangulate: true,
-                        single_index: false,
-                        ..Default::default()
-                    },
-                )
-                .map_err(|e| err("file", format!("cannot load OBJ '{}': {e}", full.display())))?;
-                for m in models {
-                    let pos = &m.mesh.positions;
-                    let idx = &m.mesh.indices;
-                    tris.reserve(idx.len() / 3);
-                    for t in idx.chunks_exact(3) {
-                        let p = |i: u32| {
-                            Vec3::new(
-                                pos[3 * i as usize],
-                                pos[3 * i as usize + 1],
-                                pos[3 * i as usize + 2],
-                            ) * scale
-                                + tr
-                        };
-                        tris.push(Triangle::new(p(t[0]), p(t[1]), p(t[2])));
-                    }
-                }
-                if tris.is_empty() {
-                    return Err(err(
-                        "file",
-                        format!("OBJ '{}' has no triangles", full.display()),
-                    ));
-                }
-            }
-        }
+        let (mut tris, sphere) = geometry(ctx.file, &ctx.dir, &base, &s.geometry)?;
         // Degenerate triangles.
         for (k, t) in tris.iter_mut().enumerate() {
             if !(t.area() > 0.0) || !t.area().is_finite() {
@@ -515,17 +368,7 @@ impl Builder {
             tris.iter().map(|t| t.area()).sum()
         };
 
-        // Light.
         if let Some(e) = &s.emission {
-            if !(e.scale.is_finite() && e.scale >= 0.0) {
-                return Err(err(
-                    "emission.scale",
-                    format!("must be a finite non-negative number, got {}", e.scale),
-                ));
-            }
-            let spec = ctx
-                .parse(&e.spectrum, &format!("{base}.emission.spectrum"))?
-                .scaled(e.scale);
             let shape = if let Some(sp) = sphere {
                 LightShape::Sphere {
                     prim: self.spheres.len() as u32,
@@ -533,23 +376,10 @@ impl Builder {
                     flip: s.flip_normals,
                 }
             } else {
-                let mut acc = 0.0;
-                let cdf = tris
-                    .iter()
-                    .map(|t| {
-                        acc += t.area() / area;
-                        acc
-                    })
-                    .collect();
-                LightShape::Triangles {
-                    prims: (first_tri..first_tri + tris.len())
-                        .map(|i| i as u32)
-                        .collect(),
-                    cdf,
-                }
+                triangles_light_shape(&tris, first_tri, area)
             };
-            self.lights
-                .push(AreaLight::new(name, shape, spec, e.two_sided, area, domain));
+            let light = area_light(ctx, &base, name, e, shape, area)?;
+            self.lights.push(light);
         }
         if let Some(sp) = sphere {
             self.spheres.push(sp);
@@ -562,6 +392,168 @@ impl Builder {
         Ok(())
     }
 }
+
+/// The light of shape `name` at JSON path `base`, emitting `e` from `shape` of area `area`.
+fn area_light(
+    ctx: &SpectrumContext,
+    base: &str,
+    name: String,
+    e: &EmissionDesc,
+    shape: LightShape,
+    area: f32,
+) -> Result<AreaLight, InputError> {
+    if !(e.scale.is_finite() && e.scale >= 0.0) {
+        return Err(shape_err(
+            ctx.file,
+            base,
+            "emission.scale",
+            format!("must be a finite non-negative number, got {}", e.scale),
+        ));
+    }
+    let spec = ctx
+        .parse(&e.spectrum, &format!("{base}.emission.spectrum"))?
+        .scaled(e.scale);
+    Ok(AreaLight::new(
+        name,
+        shape,
+        spec,
+        e.two_sided,
+        area,
+        ctx.domain,
+    ))
+}
+
+/// A light made of triangles `tris` (of total area `area`), the scene's from `first_tri` on.
+fn triangles_light_shape(tris: &[Triangle], first_tri: usize, area: f32) -> LightShape {
+    let mut acc = 0.0;
+    let cdf = tris
+        .iter()
+        .map(|t| {
+            acc += t.area() / area;
+            acc
+        })
+        .collect();
+    LightShape::Triangles {
+        prims: (first_tri..first_tri + tris.len())
+            .map(|i| i as u32)
+            .collect(),
+        cdf,
+    }
+}
+
+/// The triangles, or the sphere, of the shape at JSON path `base` (relative files are in `dir`).
+fn geometry(
+    file: &Path,
+    dir: &Path,
+    base: &str,
+    g: &ShapeGeometry,
+) -> Result<(Vec<Triangle>, Option<Sphere>), InputError> {
+    let err = |p: &str, m: String| shape_err(file, base, p, m);
+    let mut tris: Vec<Triangle> = Vec::new();
+    match g {
+        ShapeGeometry::Quad { corners } => {
+            let p: Vec<Vec3> = corners
+                .iter()
+                .enumerate()
+                .map(|(i, x)| finite3(file, &format!("{base}.corners[{i}]"), *x))
+                .collect::<Result<_, _>>()?;
+            tris.push(Triangle::new(p[0], p[1], p[2]));
+            tris.push(Triangle::new(p[0], p[2], p[3]));
+        }
+        ShapeGeometry::Box { min, max } => {
+            let lo = finite3(file, &format!("{base}.min"), *min)?;
+            let hi = finite3(file, &format!("{base}.max"), *max)?;
+            if !(lo.cmplt(hi).all()) {
+                return Err(err(
+                    "max",
+                    format!("box needs min < max on every axis, got {lo} and {hi}"),
+                ));
+            }
+            tris.extend(box_triangles(lo, hi));
+        }
+        ShapeGeometry::Sphere { center, radius } => {
+            let c = finite3(file, &format!("{base}.center"), *center)?;
+            let r = *radius;
+            if !(r > 0.0 && r.is_finite()) {
+                return Err(err("radius", format!("must be a positive number, got {r}")));
+            }
+            let sphere = Sphere {
+                center: c,
+                radius: r,
+            };
+            return Ok((tris, Some(sphere)));
+        }
+        ShapeGeometry::Triangles { vertices, indices } => {
+            for (i, x) in vertices.iter().enumerate() {
+                finite3(file, &format!("{base}.vertices[{i}]"), *x)?;
+            }
+            for (k, idx) in indices.iter().enumerate() {
+                if let Some(bad) = idx.iter().find(|&&i| i as usize >= vertices.len()) {
+                    return Err(err(
+                        &format!("indices[{k}]"),
+                        format!("index {bad} out of range ({} vertices)", vertices.len()),
+                    ));
+                }
+                tris.push(Triangle::new(
+                    v3(vertices[idx[0] as usize]),
+                    v3(vertices[idx[1] as usize]),
+                    v3(vertices[idx[2] as usize]),
+                ));
+            }
+        }
+        ShapeGeometry::Obj {
+            file: obj,
+            scale,
+            translate,
+        } => {
+            let scale = scale.unwrap_or(1.0);
+            let tr = v3(translate.unwrap_or([0.0; 3]));
+            if !(scale.is_finite() && scale != 0.0) {
+                return Err(err(
+                    "scale",
+                    format!("must be a non-zero finite number, got {scale}"),
+                ));
+            }
+            tris = obj_triangles(&dir.join(obj), scale, tr).map_err(|m| err("file", m))?;
+        }
+    }
+    Ok((tris, None))
+}
+
+/// The triangles of OBJ file `full`, scaled by `scale`, then translated by `tr`.
+fn obj_triangles(full: &Path, scale: f32, tr: Vec3) -> Result<Vec<Triangle>, String> {
+    let (models, _) = tobj::load_obj(
+        full,
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| format!("cannot load OBJ '{}': {e}", full.display()))?;
+    let mut tris = Vec::new();
+    for m in models {
+        let pos = &m.mesh.positions;
+        let idx = &m.mesh.indices;
+        tris.reserve(idx.len() / 3);
+        for t in idx.chunks_exact(3) {
+            let p = |i: u32| {
+                Vec3::new(
+                    pos[3 * i as usize],
+                    pos[3 * i as usize + 1],
+                    pos[3 * i as usize + 2],
+                ) * scale
+                    + tr
+            };
+            tris.push(Triangle::new(p(t[0]), p(t[1]), p(t[2])));
+        }
+    }
+    if tris.is_empty() {
+        return Err(format!("OBJ '{}' has no triangles", full.display()));
+    }
+    Ok(tris)
+}
+
 /// Twelve outward-facing triangles of an axis-aligned box.
 fn box_triangles(lo: Vec3, hi: Vec3) -> Vec<Triangle> {
     let c = |x: bool, y: bool, z: bool| {
