@@ -57,7 +57,7 @@ fn run(args: &[&str]) -> (i32, String) {
     )
 }
 
-fn expect_error(name: &str, text: &str, extra: &[(&str, &str)], field: &str) {
+fn expect_error(name: &str, text: &str, extra: &[(&str, &str)], field: &str) -> String {
     let (code, err) = run_scene(name, text, extra);
     assert_eq!(code, 2, "{name}: exit code {code}, stderr: {err}");
     assert!(
@@ -69,6 +69,7 @@ fn expect_error(name: &str, text: &str, extra: &[(&str, &str)], field: &str) {
         "{name}: message does not name `{field}`: {err}"
     );
     assert!(!err.contains("panicked"), "{name}: panic: {err}");
+    err
 }
 
 #[test]
@@ -133,6 +134,51 @@ fn missing_fields() {
         &[],
         "quantum_yield",
     );
+}
+
+/// Each shape `type` has its own fields: serde enforces the required ones and rejects the others.
+#[test]
+fn shape_fields_by_type() {
+    const SPHERE: &str = r#""type": "sphere", "name": "ball", "material": "dye", "center": [0, 0, 0], "radius": 0.5"#;
+    assert!(GOOD.contains(SPHERE));
+    // `type` need not come first.
+    let err = expect_error(
+        "sphere-without-radius",
+        &GOOD.replacen(
+            SPHERE,
+            r#""name": "ball", "material": "dye", "center": [0, 0, 0], "type": "sphere""#,
+            1,
+        ),
+        &[],
+        "shapes[1].radius",
+    );
+    assert!(err.contains("Sphere"), "{err}");
+    let err = expect_error(
+        "quad-with-radius",
+        &GOOD.replacen(
+            "\"name\": \"floor\",",
+            "\"name\": \"floor\", \"radius\": 1,",
+            1,
+        ),
+        &[],
+        "shapes[0].radius",
+    );
+    assert!(err.contains("unknown field `radius`"), "{err}");
+    let err = expect_error(
+        "unknown-shape-type",
+        &GOOD.replacen("\"type\": \"sphere\"", "\"type\": \"cone\"", 1),
+        &[],
+        "shapes[1].type",
+    );
+    assert!(err.contains("cone"), "{err}");
+    for (name, min, max) in [
+        ("box-min-equals-max", "[0, 0, 0]", "[1, 0, 1]"),
+        ("box-min-above-max", "[0, 0, 0]", "[-1, -1, -1]"),
+    ] {
+        let b = format!(r#""type": "box", "material": "dye", "min": {min}, "max": {max}"#);
+        let err = expect_error(name, &GOOD.replacen(SPHERE, &b, 1), &[], "shapes[1].max");
+        assert!(err.contains("min < max"), "{err}");
+    }
 }
 
 #[test]

@@ -1,0 +1,600 @@
+//! Building a runtime [`Scene`] from the format types of `format.rs`, validating as it goes:
+//! domain and camera checks, spectra and materials, shapes (triangles, spheres, OBJ files) and
+//! their lights, the light selection distribution, and the acceleration structure.
+
+use super::error::from_json_value;
+use super::format::{
+    self, CameraDesc, EmissionDesc, FovAxis, MaterialDesc, ShapeDesc, ShapeGeometry,
+};
+use super::lights::{AreaLight, LightSet, LightShape};
+use super::spectra::SpectrumContext;
+use super::{InputError, NONE, PrimInfo, Scene, ShapeInfo};
+use crate::geometry::{Accel, Camera, Sphere, Triangle};
+use crate::material::{Bbrrdf, FluorescentDiffuse, Lambert, Material, Reradiation};
+use crate::spectrum::{DEFAULT_DOMAIN, Domain, Observer};
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Parse and validate the scene `text` of file `path` (which names the file in errors and
+/// resolves relative paths).
+pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
+    let (f, shape_descs) = format::read(path, text)?;
+    let mut warnings = Vec::new();
+    let domain = domain(path, f.domain)?;
+    let observer = Observer::new(domain);
+    if observer.range.width() <= 0.0 {
+        return Err(at(
+            path,
+            "domain",
+            "does not overlap the observer's 360–830 nm".into(),
+        ));
+    }
+    let camera = camera(path, &f.camera)?;
+
+    // Spectra and materials.
+    let mut ctx = SpectrumContext {
+        file: path,
+        dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        named: BTreeMap::new(),
+        domain,
+    };
+    for (name, v) in &f.spectra {
+        let s = ctx.parse(v, &format!("spectra.{name}"))?;
+        ctx.named.insert(name.clone(), s);
+    }
+    let mut materials = Vec::new();
+    let mut material_names = Vec::new();
+    for (name, v) in &f.materials {
+        let base = format!("materials.{name}");
+        let desc: MaterialDesc = from_json_value(path, &base, v)?;
+        materials.push(material(&ctx, &base, desc, &mut warnings)?);
+        material_names.push(name.clone());
+    }
+
+    // Shapes and lights.
+    let mut b = Builder::default();
+    for (si, s) in shape_descs.iter().enumerate() {
+        b.add_shape(&ctx, &material_names, si, s)?;
+    }
+    if b.lights.is_empty() {
+        return Err(at(
+            path,
+            "shapes",
+            "the scene has no light: give at least one shape an `emission`".into(),
+        ));
+    }
+    if b.lights.iter().all(|l| l.power <= 0.0) {
+        return Err(at(
+            path,
+            "shapes",
+            "every light emits zero power over the wavelength domain".into(),
+        ));
+    }
+    let mut prims = b.tri_info;
+    prims.extend(b.sphere_info);
+    let accel = Accel::build(&b.triangles, &b.spheres);
+    let triangle_normals = b
+        .triangles
+        .iter()
+        .map(|t| t.normal_raw().normalize())
+        .collect();
+    let has_fluorescence = materials.iter().any(|m| m.is_fluorescent());
+    Ok(Scene {
+        file: path.to_path_buf(),
+        domain,
+        observer,
+        camera,
+        materials,
+        material_names,
+        triangles: b.triangles,
+        spheres: b.spheres,
+        sphere_flip: b.sphere_flip,
+        triangle_normals,
+        prims,
+        shapes: b.shapes,
+        lights: LightSet::new(b.lights),
+        accel,
+        has_fluorescence,
+        has_media: false,
+        warnings,
+    })
+}
+
+/// An error at JSON path `field` of `file`.
+fn at(file: &Path, field: &str, message: String) -> InputError {
+    InputError::new(file, field, message)
+}
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+/// The point `a`, found at JSON path `path`, if its coordinates are finite.
+fn finite3(file: &Path, path: &str, a: [f32; 3]) -> Result<Vec3, InputError> {
+    if a.iter().all(|x| x.is_finite()) {
+        Ok(v3(a))
+    } else {
+        Err(InputError::new(
+            file,
+            path,
+            format!("coordinates must be finite numbers, got {a:?}"),
+        ))
+    }
+}
+
+/// The wavelength domain: the file's, checked, or the default.
+fn domain(path: &Path, d: Option<[f32; 2]>) -> Result<Domain, InputError> {
+    match d {
+        None => Ok(DEFAULT_DOMAIN),
+        Some([a, b]) => {
+            if !(a.is_finite() && b.is_finite() && a >= 0.0 && a < b) {
+                return Err(at(
+                    path,
+                    "domain",
+                    format!("needs 0 ≤ min < max, got [{a}, {b}]"),
+                ));
+            }
+            Ok(Domain { min: a, max: b })
+        }
+    }
+}
+
+fn camera(path: &Path, c: &CameraDesc) -> Result<Camera, InputError> {
+    let origin = finite3(path, "camera.origin", c.origin)?;
+    let target = finite3(path, "camera.target", c.target)?;
+    let up = finite3(path, "camera.up", c.up)?;
+    if (target - origin).length() <= 0.0 {
+        return Err(at(
+            path,
+            "camera.target",
+            "must differ from camera.origin".into(),
+        ));
+    }
+    if (target - origin).normalize().cross(up).length() < 1e-6 {
+        return Err(at(
+            path,
+            "camera.up",
+            "must not be parallel to the viewing direction".into(),
+        ));
+    }
+    if !(c.fov > 0.0 && c.fov < 180.0) {
+        return Err(at(
+            path,
+            "camera.fov",
+            format!("must be in (0, 180) degrees, got {}", c.fov),
+        ));
+    }
+    if c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384 {
+        return Err(at(
+            path,
+            "camera.width",
+            format!("resolution must be 1–16384, got {}×{}", c.width, c.height),
+        ));
+    }
+    Ok(Camera::look_at(
+        origin,
+        target,
+        up,
+        c.fov,
+        c.fov_axis == FovAxis::X,
+        c.width,
+        c.height,
+    ))
+}
+
+/// The material `desc` found at JSON path `base`; warnings about it go to `warnings`.
+fn material(
+    ctx: &SpectrumContext,
+    base: &str,
+    desc: MaterialDesc,
+    warnings: &mut Vec<String>,
+) -> Result<Material, InputError> {
+    let err = |p: &str, m: String| at(ctx.file, p, m);
+    let domain = ctx.domain;
+    Ok(match desc {
+        MaterialDesc::Lambert { reflectance } => {
+            let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
+            if r.max_value(domain) > 1.0 {
+                warnings.push(format!(
+                    "{base}.reflectance exceeds 1: the surface creates energy"
+                ));
+            }
+            Material::Lambert(Lambert { reflectance: r })
+        }
+        MaterialDesc::FluorescentDiffuse {
+            reflectance,
+            absorption,
+            emission,
+            quantum_yield,
+            concentration,
+        } => {
+            for (v, n) in [
+                (quantum_yield, "quantum_yield"),
+                (concentration, "concentration"),
+            ] {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(err(
+                        &format!("{base}.{n}"),
+                        format!("must be in [0, 1], got {v}"),
+                    ));
+                }
+            }
+            let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
+            let a = ctx.parse(&absorption, &format!("{base}.absorption"))?;
+            let e = ctx.parse(&emission, &format!("{base}.emission"))?;
+            if r.max_value(domain) > 1.0 {
+                warnings.push(format!(
+                    "{base}.reflectance exceeds 1: the surface creates energy"
+                ));
+            }
+            let (m, w) = FluorescentDiffuse::new(r, a, e, quantum_yield, concentration, domain)
+                .map_err(|m| err(base, m))?;
+            warnings.extend(w.into_iter().map(|w| format!("{base}: {w}")));
+            Material::Fluorescent(m)
+        }
+        MaterialDesc::Reradiation { file } => {
+            let full = ctx.dir.join(&file);
+            let text = std::fs::read_to_string(&full).map_err(|e| {
+                err(
+                    &format!("{base}.file"),
+                    format!("cannot read '{}': {e}", full.display()),
+                )
+            })?;
+            let m = Reradiation::parse_bfc(&text, domain).map_err(|m| {
+                err(
+                    &format!("{base}.file"),
+                    format!("malformed BFC file '{}': {m}", full.display()),
+                )
+            })?;
+            Material::Reradiation(m)
+        }
+    })
+}
+
+/// The primitives of the scene as its shapes are added, in order.
+#[derive(Default)]
+struct Builder {
+    triangles: Vec<Triangle>,
+    tri_info: Vec<PrimInfo>,
+    spheres: Vec<Sphere>,
+    sphere_flip: Vec<bool>,
+    sphere_info: Vec<PrimInfo>,
+    shapes: Vec<ShapeInfo>,
+    lights: Vec<AreaLight>,
+}
+
+/// An error at field `field` of the shape at JSON path `base` (the shape itself if empty).
+fn shape_err(file: &Path, base: &str, field: &str, m: String) -> InputError {
+    if field.is_empty() {
+        InputError::new(file, base, m)
+    } else {
+        InputError::new(file, format!("{base}.{field}"), m)
+    }
+}
+
+impl Builder {
+    /// Add shape number `si`, `s`, with its light if it emits.
+    fn add_shape(
+        &mut self,
+        ctx: &SpectrumContext,
+        material_names: &[String],
+        si: usize,
+        s: &ShapeDesc,
+    ) -> Result<(), InputError> {
+        let base = format!("shapes[{si}]");
+        let err = |p: &str, m: String| shape_err(ctx.file, &base, p, m);
+        let material = match &s.material {
+            None => NONE,
+            Some(name) => material_names
+                .iter()
+                .position(|n| n == name)
+                .map(|i| i as u32)
+                .ok_or_else(|| {
+                    err(
+                        "material",
+                        format!(
+                            "unknown material '{name}' (defined: {})",
+                            material_names.join(", ")
+                        ),
+                    )
+                })?,
+        };
+        if material == NONE && s.emission.is_none() {
+            return Err(err(
+                "material",
+                "a shape needs a `material`, an `emission`, or both".into(),
+            ));
+        }
+        let shape_id = self.shapes.len() as u32;
+        let name = s.name.clone().unwrap_or_else(|| format!("shape{si}"));
+        self.shapes.push(ShapeInfo {
+            name: name.clone(),
+            material,
+        });
+        let light_id = if s.emission.is_some() {
+            self.lights.len() as u32
+        } else {
+            NONE
+        };
+        let info = PrimInfo {
+            material,
+            light: light_id,
+            shape: shape_id,
+        };
+
+        let (mut tris, sphere) = geometry(ctx.file, &ctx.dir, &base, &s.geometry)?;
+        // Degenerate triangles.
+        for (k, t) in tris.iter_mut().enumerate() {
+            if !(t.area() > 0.0) || !t.area().is_finite() {
+                return Err(err(
+                    "",
+                    format!("degenerate geometry: triangle {k} has zero area"),
+                ));
+            }
+            if s.flip_normals {
+                t.v.swap(1, 2);
+            }
+        }
+        let area: f32 = if let Some(sp) = sphere {
+            sp.area()
+        } else {
+            tris.iter().map(|t| t.area()).sum()
+        };
+
+        if let Some(e) = &s.emission {
+            let shape = if let Some(sp) = sphere {
+                LightShape::Sphere {
+                    sphere: sp,
+                    flip: s.flip_normals,
+                }
+            } else {
+                triangles_light_shape(&tris, area)
+            };
+            let light = area_light(ctx, &base, name, e, shape, area)?;
+            self.lights.push(light);
+        }
+        if let Some(sp) = sphere {
+            self.spheres.push(sp);
+            self.sphere_flip.push(s.flip_normals);
+            self.sphere_info.push(info);
+        } else {
+            self.tri_info.extend(std::iter::repeat_n(info, tris.len()));
+            self.triangles.extend(tris);
+        }
+        Ok(())
+    }
+}
+
+/// The light of shape `name` at JSON path `base`, emitting `e` from `shape` of area `area`.
+fn area_light(
+    ctx: &SpectrumContext,
+    base: &str,
+    name: String,
+    e: &EmissionDesc,
+    shape: LightShape,
+    area: f32,
+) -> Result<AreaLight, InputError> {
+    if !(e.scale.is_finite() && e.scale >= 0.0) {
+        return Err(shape_err(
+            ctx.file,
+            base,
+            "emission.scale",
+            format!("must be a finite non-negative number, got {}", e.scale),
+        ));
+    }
+    let spec = ctx
+        .parse(&e.spectrum, &format!("{base}.emission.spectrum"))?
+        .scaled(e.scale);
+    Ok(AreaLight::new(
+        name,
+        shape,
+        spec,
+        e.two_sided,
+        area,
+        ctx.domain,
+    ))
+}
+
+/// A light made of (a copy of) triangles `tris` of total area `area`.
+fn triangles_light_shape(tris: &[Triangle], area: f32) -> LightShape {
+    let mut acc = 0.0;
+    let cdf = tris
+        .iter()
+        .map(|t| {
+            acc += t.area() / area;
+            acc
+        })
+        .collect();
+    LightShape::Triangles {
+        tris: tris.to_vec(),
+        cdf,
+    }
+}
+
+/// The triangles, or the sphere, of the shape at JSON path `base` (relative files are in `dir`).
+fn geometry(
+    file: &Path,
+    dir: &Path,
+    base: &str,
+    g: &ShapeGeometry,
+) -> Result<(Vec<Triangle>, Option<Sphere>), InputError> {
+    let err = |p: &str, m: String| shape_err(file, base, p, m);
+    let mut tris: Vec<Triangle> = Vec::new();
+    match g {
+        ShapeGeometry::Quad { corners } => {
+            let p: Vec<Vec3> = corners
+                .iter()
+                .enumerate()
+                .map(|(i, x)| finite3(file, &format!("{base}.corners[{i}]"), *x))
+                .collect::<Result<_, _>>()?;
+            tris.push(Triangle::new(p[0], p[1], p[2]));
+            tris.push(Triangle::new(p[0], p[2], p[3]));
+        }
+        ShapeGeometry::Box { min, max } => {
+            let lo = finite3(file, &format!("{base}.min"), *min)?;
+            let hi = finite3(file, &format!("{base}.max"), *max)?;
+            if !(lo.cmplt(hi).all()) {
+                return Err(err(
+                    "max",
+                    format!("box needs min < max on every axis, got {lo} and {hi}"),
+                ));
+            }
+            tris.extend(box_triangles(lo, hi));
+        }
+        ShapeGeometry::Sphere { center, radius } => {
+            let c = finite3(file, &format!("{base}.center"), *center)?;
+            let r = *radius;
+            if !(r > 0.0 && r.is_finite()) {
+                return Err(err("radius", format!("must be a positive number, got {r}")));
+            }
+            let sphere = Sphere {
+                center: c,
+                radius: r,
+            };
+            return Ok((tris, Some(sphere)));
+        }
+        ShapeGeometry::Triangles { vertices, indices } => {
+            for (i, x) in vertices.iter().enumerate() {
+                finite3(file, &format!("{base}.vertices[{i}]"), *x)?;
+            }
+            for (k, idx) in indices.iter().enumerate() {
+                if let Some(bad) = idx.iter().find(|&&i| i as usize >= vertices.len()) {
+                    return Err(err(
+                        &format!("indices[{k}]"),
+                        format!("index {bad} out of range ({} vertices)", vertices.len()),
+                    ));
+                }
+                tris.push(Triangle::new(
+                    v3(vertices[idx[0] as usize]),
+                    v3(vertices[idx[1] as usize]),
+                    v3(vertices[idx[2] as usize]),
+                ));
+            }
+        }
+        ShapeGeometry::Obj {
+            file: obj,
+            scale,
+            translate,
+        } => {
+            let scale = scale.unwrap_or(1.0);
+            let tr = v3(translate.unwrap_or([0.0; 3]));
+            if !(scale.is_finite() && scale != 0.0) {
+                return Err(err(
+                    "scale",
+                    format!("must be a non-zero finite number, got {scale}"),
+                ));
+            }
+            tris = obj_triangles(&dir.join(obj), scale, tr).map_err(|m| err("file", m))?;
+        }
+    }
+    Ok((tris, None))
+}
+
+/// The triangles of OBJ file `full`, scaled by `scale`, then translated by `tr`.
+fn obj_triangles(full: &Path, scale: f32, tr: Vec3) -> Result<Vec<Triangle>, String> {
+    let (models, _) = tobj::load_obj(
+        full,
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: false,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| format!("cannot load OBJ '{}': {e}", full.display()))?;
+    let mut tris = Vec::new();
+    for m in models {
+        let pos = &m.mesh.positions;
+        let idx = &m.mesh.indices;
+        tris.reserve(idx.len() / 3);
+        for t in idx.chunks_exact(3) {
+            let p = |i: u32| {
+                Vec3::new(
+                    pos[3 * i as usize],
+                    pos[3 * i as usize + 1],
+                    pos[3 * i as usize + 2],
+                ) * scale
+                    + tr
+            };
+            tris.push(Triangle::new(p(t[0]), p(t[1]), p(t[2])));
+        }
+    }
+    if tris.is_empty() {
+        return Err(format!("OBJ '{}' has no triangles", full.display()));
+    }
+    Ok(tris)
+}
+
+/// Twelve outward-facing triangles of an axis-aligned box.
+fn box_triangles(lo: Vec3, hi: Vec3) -> Vec<Triangle> {
+    let c = |x: bool, y: bool, z: bool| {
+        Vec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
+    // Each face as four corners counter-clockwise seen from outside.
+    let faces = [
+        [
+            c(true, false, false),
+            c(true, true, false),
+            c(true, true, true),
+            c(true, false, true),
+        ], // +x
+        [
+            c(false, false, false),
+            c(false, false, true),
+            c(false, true, true),
+            c(false, true, false),
+        ], // -x
+        [
+            c(false, true, false),
+            c(false, true, true),
+            c(true, true, true),
+            c(true, true, false),
+        ], // +y
+        [
+            c(false, false, false),
+            c(true, false, false),
+            c(true, false, true),
+            c(false, false, true),
+        ], // -y
+        [
+            c(false, false, true),
+            c(true, false, true),
+            c(true, true, true),
+            c(false, true, true),
+        ], // +z
+        [
+            c(false, false, false),
+            c(false, true, false),
+            c(true, true, false),
+            c(true, false, false),
+        ], // -z
+    ];
+    faces
+        .iter()
+        .flat_map(|q| {
+            [
+                Triangle::new(q[0], q[1], q[2]),
+                Triangle::new(q[0], q[2], q[3]),
+            ]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_faces_point_outwards() {
+        let lo = Vec3::splat(-1.0);
+        let hi = Vec3::splat(1.0);
+        for t in box_triangles(lo, hi) {
+            let centroid = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+            assert!(t.normal_raw().dot(centroid) > 0.0);
+        }
+    }
+}
