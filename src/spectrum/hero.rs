@@ -44,13 +44,17 @@ impl<L: Lanes> SampledWavelengths<L> {
         }
         let range = observer.range;
         let lambda = L::from_fn(n, |j| rotate(hero, range, n, j));
-        let pdf = L::from_fn(n, |j| {
-            if j == 0 {
-                pdf_hero
-            } else {
-                observer.pdf_wavelength(mode, lambda.lane(j))
-            }
-        });
+        let pdf = match mode {
+            // Every lane lies inside the range.
+            CameraWavelengths::Uniform => L::splat_n(n, pdf_hero),
+            CameraWavelengths::Cmf => L::from_fn(n, |j| {
+                if j == 0 {
+                    pdf_hero
+                } else {
+                    observer.pdf_wavelength(mode, lambda.lane(j))
+                }
+            }),
+        };
         Some(SampledWavelengths {
             lambda,
             pdf,

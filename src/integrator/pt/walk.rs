@@ -94,16 +94,20 @@ impl Walk {
             let wo = -ray.d;
             let segments = depth as usize + 1;
             if it.light != NONE {
-                let w = if depth == 0 {
-                    1.0
-                } else {
-                    let pdf_light = scene.lights.pdf_li(prev_p, it.light as usize, it.p, it.n);
-                    self.mis.weight2(pdf_dir_prev, pdf_light)
-                };
-                let c = self.emitted(scene, &it, wo, lambda) * beta * w;
-                if c.max_lane() > 0.0 {
-                    radiance += c;
-                    sink.stats.contribution(segments);
+                let le = self.emitted(scene, &it, wo, lambda);
+                if le.max_lane() > 0.0 {
+                    let w = if depth == 0 {
+                        1.0
+                    } else {
+                        let light = it.light as usize;
+                        let pdf_light = scene.lights.pdf_li(prev_p, light, it.p, it.n);
+                        self.mis.weight2(pdf_dir_prev, pdf_light)
+                    };
+                    let c = beta * le * w;
+                    if c.max_lane() > 0.0 {
+                        radiance += c;
+                        sink.stats.contribution(segments);
+                    }
                 }
             }
             if it.material == NONE || segments >= self.max_depth as usize {
