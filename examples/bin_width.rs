@@ -13,7 +13,7 @@ use stokes::scene::Scene;
 use stokes::spectrum::xyz_to_linear_srgb;
 
 /// SNR_dB = 10·log10(Σ ref² / Σ (img − ref)²) and relMSE = mean((img − ref)² / (ref² + 1e-2))
-/// over pixels and linear-RGB channels (DESIGN.md §6).
+/// over pixels and linear-RGB channels (docs/design.md §6).
 fn metrics(img: &[Vec3], reference: &[Vec3]) -> (f64, f64) {
     let (mut s2, mut e2, mut rel) = (0.0f64, 0.0f64, 0.0f64);
     for (a, b) in img.iter().zip(reference) {

@@ -351,7 +351,7 @@ fn each_strategy_alone_converges_to_the_same_image() {
     }
 }
 
-/// Stiff cases (DESIGN §5): purely fluorescent walls (r = 0), c = Φ = 1, one-bin (5 nm)
+/// Stiff cases (docs/design.md §5): purely fluorescent walls (r = 0), c = Φ = 1, one-bin (5 nm)
 /// absorption and emission spectra. No NaN or Inf may reach the film.
 #[test]
 fn stiff_fluorescent_walls_stay_finite() {

@@ -123,7 +123,7 @@ fn agree_cornell_box_non_fluorescent() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Numerical stability (DESIGN.md §5).
+// Numerical stability (docs/design.md §5).
 
 fn furnace_json() -> Value {
     serde_json::from_str(&std::fs::read_to_string("scenes/furnace-fluorescent.json").unwrap())

@@ -1,4 +1,4 @@
-//! Error metrics against a reference (DESIGN.md §6), over linear-RGB pixels, optionally
+//! Error metrics against a reference (docs/design.md §6), over linear-RGB pixels, optionally
 //! restricted to a region mask.
 
 use glam::Vec3;

@@ -135,7 +135,7 @@ impl Bbrrdf for FluorescentDiffuse {
         }
     }
     /// Diagonal plus rank one: t ← (1 − c·a)·r·t + Φ·e·∫ c·a·t dλ' (Jung Alg. 6 line 4, as
-    /// corrected in DESIGN.md §4).
+    /// corrected in docs/design.md §4).
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         let n = grid.len();
         let mut diag = Vec::with_capacity(n);

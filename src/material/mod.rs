@@ -1,4 +1,4 @@
-//! Spectral materials behind one BBRRDF interface (DESIGN.md §3.1).
+//! Spectral materials behind one BBRRDF interface (docs/design.md §3.1).
 //!
 //! A material's reflectance is split into a wavelength-preserving part (the diagonal of the
 //! reradiation matrix, a δ(λin − λout) term) and a wavelength-shifting kernel ρ(λin → λout)

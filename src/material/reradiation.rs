@@ -3,7 +3,7 @@
 //!
 //! Layout: rows are emission λo, columns excitation λi, 10 nm steps; the diagonal is the plain
 //! reflectance and an off-diagonal entry is the kernel times the excitation bin width:
-//! ρ(λi→λo) = D[o][i] / Δλ (DESIGN.md §2). Each entry covers a cell of ±Δλ/2 around its
+//! ρ(λi→λo) = D[o][i] / Δλ (docs/design.md §2). Each entry covers a cell of ±Δλ/2 around its
 //! wavelength, clipped to the domain. The loader cleans the data as Hua §5.1 does: entries below
 //! the diagonal (λo < λi) and every negative value are set to zero. Reflectance is not measured
 //! below the first emission wavelength (380 nm) and is taken as zero there.

@@ -1,6 +1,6 @@
 //! Directional scattering at a path vertex behind one small interface: a surface's diffuse lobe
 //! today, a medium's Henyey–Greenstein phase function next. The directional part never depends on
-//! wavelength, so a path's geometry is independent of its wavelengths (DESIGN §3.1).
+//! wavelength, so a path's geometry is independent of its wavelengths (docs/design.md §3.1).
 //!
 //! Convention (pbrt-v4): `wo` and `wi` are unit vectors pointing away from the vertex, `wo`
 //! towards where the path came from and `wi` towards where it goes. `pdf(wo, wi)` is the

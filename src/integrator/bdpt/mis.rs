@@ -1,5 +1,5 @@
 //! The full pdf p_A · p_Λ of a path for every strategy ŝ that could have produced it
-//! (Jung eqs. 6.3, 6.9–6.14 with the corrections of DESIGN.md §4), and the MIS weights.
+//! (Jung eqs. 6.3, 6.9–6.14 with the corrections of docs/design.md §4), and the MIS weights.
 //!
 //! Strategy ŝ means ŝ camera vertices x0 … x(ŝ−1) and t̂ = k − ŝ light vertices; ŝ = 1 is light
 //! tracing (the light path's wavelengths reach the camera unchanged, Jung 6.3.2), ŝ = k is a
@@ -124,7 +124,7 @@ impl FullPath {
         }
         match mode {
             ResetMode::Forward => {
-                // eqs. 6.9/6.10 (DESIGN §4): walk from xŝ; no-shift vertices give 1 − P_c, the first
+                // eqs. 6.9/6.10 (docs/design.md §4): walk from xŝ; no-shift vertices give 1 − P_c, the first
                 // shifting vertex j gives P_c and the light sub-path's pdfs apply beyond it.
                 match (s_hat..=last).find(|&i| self.shift[i]) {
                     Some(j) => {
@@ -216,7 +216,7 @@ mod tests {
     fn backward_walk_of_two_vertices_by_hand() {
         // ŝ = 3 (x0, x1, x2 camera; x3 light): the walk starts at x2 = x(s−1) (no shift:
         // 1 − P_l(x2) = 0.7) and stops at x1 (P_l(x1) = 0.5); below it the camera's p_c(λ0).
-        // The printed upper index s − 2 of eq. 6.11 would drop the factor of x2 (DESIGN §4).
+        // The printed upper index s − 2 of eq. 6.11 would drop the factor of x2 (docs/design.md §4).
         let p = path();
         let want = 0.01 * 0.5 * 0.7 * 0.02;
         assert!((p.wavelength_pdf(3, ResetMode::Backward) - want).abs() < 1e-15);

@@ -51,7 +51,7 @@ impl SupportedOp {
                 }
                 s
             }
-            // M·t = d∘t + e·(aᵀt) (DESIGN.md §4, corrected Alg. 6 line 4).
+            // M·t = d∘t + e·(aᵀt) (docs/design.md §4, corrected Alg. 6 line 4).
             BinOperator::RankOne { diag, absorb, emit } => {
                 out.fill(0.0);
                 let sd = ts.intersect(self.diag);

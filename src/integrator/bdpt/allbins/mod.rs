@@ -1,5 +1,5 @@
 //! `bdpt-allbins`: a geometric bidirectional path tracer whose paths are evaluated for every
-//! wavelength bin at once (Jung 6.5, with the Alg. 6 line 4 correction of DESIGN.md §4).
+//! wavelength bin at once (Jung 6.5, with the Alg. 6 line 4 correction of docs/design.md §4).
 //!
 //! Sub-paths carry no wavelengths. A light sub-path carries a spectrum (one value per bin): the
 //! emission bins, then `M·t` at each vertex (`BinOperator::apply`). A camera sub-path carries
