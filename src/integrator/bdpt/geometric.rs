@@ -48,7 +48,9 @@ pub fn random_walk<P: Copy + Default>(
             return;
         };
         let d2 = it.t * it.t;
-        verts.push(Vertex::surface(&it, pdf_dir * it.n.dot(ray.d).abs() / d2));
+        let mut v = Vertex::surface(&it, 0.0);
+        v.pdf_fwd = Vertex::<P>::area_pdf(pdf_dir, ray.d, d2, &v);
+        verts.push(v);
         match on_vertex(verts, sampler) {
             Step::Continue => {}
             Step::Stop => return,
