@@ -210,7 +210,7 @@ fn sibling_modules_have_no_import_cycles() {
         for p in crate_paths(&lines) {
             // The longest module prefix of the path.
             for k in (1..=p.len()).rev() {
-                if modules.contains(&p[..k].to_vec()) {
+                if modules.contains(&p[..k]) {
                     targets.push(p[..k].to_vec());
                     break;
                 }
