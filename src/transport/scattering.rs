@@ -85,7 +85,7 @@ impl Scattering {
 
     /// Sample `wi` given `wo` from two uniform numbers: cosine-weighted on the side of `wo`
     /// (diffuse), or by inverting the Henyey–Greenstein CDF in μ.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> DirectionSample {
         match *self {
             Scattering::Diffuse { n } => {
@@ -98,27 +98,29 @@ impl Scattering {
                     weight: 1.0,
                 }
             }
-            Scattering::HenyeyGreenstein { g } => {
-                // F(μ) = (1 − g²)/(2g) · (1/(1 − g) − (1 + g² + 2gμ)^{−1/2}) = u, solved for μ;
-                // uniform μ when g ≈ 0.
-                let mu = if g.abs() < 1e-3 {
-                    1.0 - 2.0 * u[0]
-                } else {
-                    let s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u[0]);
-                    (-(1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-                };
-                let sin = (1.0 - mu * mu).max(0.0).sqrt();
-                let phi = 2.0 * PI * u[1];
-                let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
-                let p = henyey_greenstein(mu, g);
-                DirectionSample {
-                    wi: Frame::from_normal(wo).to_world(local),
-                    f: p,
-                    pdf: p,
-                    weight: 1.0,
-                }
-            }
+            Scattering::HenyeyGreenstein { g } => sample_henyey_greenstein(wo, g, u),
         }
+    }
+}
+
+/// Sample the Henyey–Greenstein phase function about `wo` by inverting its CDF in μ:
+/// F(μ) = (1 − g²)/(2g) · (1/(1 − g) − (1 + g² + 2gμ)^{−1/2}) = u, uniform μ when g ≈ 0.
+fn sample_henyey_greenstein(wo: Vec3, g: f32, u: [f32; 2]) -> DirectionSample {
+    let mu = if g.abs() < 1e-3 {
+        1.0 - 2.0 * u[0]
+    } else {
+        let s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u[0]);
+        (-(1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+    };
+    let sin = (1.0 - mu * mu).max(0.0).sqrt();
+    let phi = 2.0 * PI * u[1];
+    let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
+    let p = henyey_greenstein(mu, g);
+    DirectionSample {
+        wi: Frame::from_normal(wo).to_world(local),
+        f: p,
+        pdf: p,
+        weight: 1.0,
     }
 }
 

@@ -23,36 +23,32 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     if f <= 0.0 {
         return 0.0;
     }
+    // x0 → x1: We(x0 → x1) = 1 / (A cos⁴θ) and the geometry term without a cosine at the pinhole.
+    let (mut w, d2) = v[0].towards(&v[1]);
+    let c0 = w.dot(scene.camera.forward) as f64;
+    if c0 <= 0.0 {
+        return 0.0;
+    }
+    f *= c0 * v[1].abs_cos(w) as f64 / d2 as f64;
+    f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
+    // Each interior vertex: f = f_λ · f_dir, then the segment towards the light.
     for i in 1..=k - 2 {
         let x = &v[i];
         if x.material == NONE {
             return 0.0;
         }
-        let (wo, _) = x.towards(&v[i - 1]);
-        let (wi, _) = x.towards(&v[i + 1]);
-        let f_dir = x.scattering().eval(wo, wi);
+        let (wi, d2) = x.towards(&v[i + 1]);
+        let f_dir = x.scattering().eval(-w, wi);
+        if f_dir == 0.0 {
+            return 0.0;
+        }
         let m: &Material = &scene.materials[x.material as usize];
         f *= m.eval(path.lambda[i], path.lambda[i - 1], path.shift[i]) as f64 * f_dir as f64;
+        f *= x.abs_cos(wi) as f64 * v[i + 1].abs_cos(wi) as f64 / d2 as f64;
         if f <= 0.0 {
             return 0.0;
         }
-    }
-    for i in 0..k - 1 {
-        let (w, d2) = v[i].towards(&v[i + 1]);
-        let c0 = if i == 0 {
-            w.dot(scene.camera.forward) as f64
-        } else {
-            v[i].abs_cos(w) as f64
-        };
-        let c1 = v[i + 1].abs_cos(w) as f64;
-        f *= c0 * c1 / d2 as f64;
-        if i == 0 {
-            if c0 <= 0.0 {
-                return 0.0;
-            }
-            // We(x0 → x1) = 1 / (A cos⁴θ)
-            f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
-        }
+        w = wi;
     }
     f
 }
@@ -119,6 +115,7 @@ impl Bdpt {
     /// Set the wavelengths of the connected path (Jung 6.3): light tracing keeps the light
     /// sub-path's, camera hits and forward NEE keep the camera's, otherwise the forward or
     /// backward reset walks from the connection.
+    #[inline]
     fn reset(&self, scene: &Scene, path: &mut FullPath, s: usize, t: usize, sampler: &mut Sampler) {
         let k = path.k;
         match (self.mode, s, t) {

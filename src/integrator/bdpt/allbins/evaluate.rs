@@ -107,35 +107,24 @@ pub fn dot3_on(rows: &[f32], t: &[f32], on: Support) -> Vec3 {
     )
 }
 
-/// Directional factor of vertex `v` for light leaving (or importance arriving) towards `to`,
-/// given the other neighbour `prev` on its own sub-path: the vertex's lobe for a scattering
-/// vertex, the emitter's directional profile (1 on an emitting side) for a light origin.
+/// Directional factor of vertex `v` for light leaving (or importance arriving) in the unit
+/// direction `wi`, given the other neighbour `prev` on its own sub-path: the vertex's lobe for a
+/// scattering vertex, the emitter's directional profile (1 on an emitting side) for a light
+/// origin.
 #[inline]
-pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, to: Vec3) -> f32 {
+pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, wi: Vec3) -> f32 {
     match v.kind {
         VertexKind::Light => {
             let l = &scene.lights[v.light as usize];
-            if l.emits_towards(v.n, to - v.p) {
-                1.0
-            } else {
-                0.0
-            }
+            if l.emits_towards(v.n, wi) { 1.0 } else { 0.0 }
         }
         VertexKind::Surface => {
             let Some(prev) = prev else { return 0.0 };
             let (wo, _) = v.towards(prev);
-            let wi = (to - v.p).normalize();
             v.scattering().eval(wo, wi)
         }
         VertexKind::Camera => 0.0,
     }
-}
-
-/// Geometry term G = |cos_a|·|cos_b| / d² between two vertices (Veach eq. 8.3).
-#[inline]
-pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
-    let (w, d2) = a.towards(b);
-    a.abs_cos(w) * b.abs_cos(w) / d2
 }
 
 /// Pinhole importance for a light-tracing splat: the pixel's W_e = N_pixels / (A_film · cos⁴θ)

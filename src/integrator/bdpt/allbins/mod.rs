@@ -21,7 +21,7 @@ use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
 use crate::transport::{self, VertexKind, transmittance};
 use binops::SupportedOp;
-use evaluate::{Support, dot3_on, f_dir, geometry, pinhole_we};
+use evaluate::{Support, dot3_on, f_dir, pinhole_we};
 use glam::Vec3;
 
 /// The payload of an all-bins vertex: the scalar (directional) throughput arriving at it,
@@ -321,7 +321,7 @@ impl BdptAllbins {
         let zc = camera_vertex(scene);
         let (wdir, dist2) = zc.towards(yv);
         let (px, py, cos) = cam.project(wdir)?;
-        let fy = f_dir(scene, yv, sc.light.get(s.wrapping_sub(2)), cam.origin);
+        let fy = f_dir(scene, yv, sc.light.get(s.wrapping_sub(2)), -wdir);
         if fy == 0.0 {
             return None;
         }
@@ -378,9 +378,12 @@ impl BdptAllbins {
         if on.is_empty() || (yv.kind == VertexKind::Surface && yv.material == NONE) {
             return None;
         }
-        let fz = f_dir(scene, z, Some(zp), yv.p);
-        let fy = f_dir(scene, yv, yprev, z.p);
-        let scal = fz * fy * geometry(z, yv) * z.data.beta * yv.data.beta;
+        // The connection z → y: lobes at both ends and the geometry term (Veach eq. 8.3).
+        let (w, d2) = z.towards(yv);
+        let fz = f_dir(scene, z, Some(zp), w);
+        let fy = f_dir(scene, yv, yprev, -w);
+        let g = z.abs_cos(w) * yv.abs_cos(w) / d2;
+        let scal = fz * fy * g * z.data.beta * yv.data.beta;
         if scal == 0.0 {
             return None;
         }
