@@ -8,7 +8,7 @@ pub use bdpt::allbins;
 pub mod pt;
 pub mod render;
 
-pub use render::{RenderOutput, RenderSettings, render};
+pub use render::{RenderOutput, RenderSettings, check, render};
 
 use crate::material::WavelengthSampling;
 pub use crate::scene::LightWavelengths;
