@@ -31,3 +31,25 @@ pub fn sample_cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
     let (s, c) = phi.sin_cos();
     Vec3::new(r * c, r * s, (1.0 - u1).max(0.0).sqrt())
 }
+
+/// The unit direction with cos θ = `cos_theta` about +z and azimuth `phi`.
+#[inline]
+pub fn spherical_direction(cos_theta: f32, phi: f32) -> Vec3 {
+    let r = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    Vec3::new(r * phi.cos(), r * phi.sin(), cos_theta)
+}
+
+/// ∫ f(ω) dω over the unit sphere by the midpoint rule on an `m` × `m` grid in (cos θ, φ), for
+/// tests of pdfs.
+#[cfg(test)]
+pub fn integrate_over_sphere(m: usize, f: impl Fn(Vec3) -> f64) -> f64 {
+    let mut s = 0.0f64;
+    for i in 0..m {
+        let z = -1.0 + 2.0 * (i as f32 + 0.5) / m as f32;
+        for k in 0..m {
+            let phi = 2.0 * std::f32::consts::PI * (k as f32 + 0.5) / m as f32;
+            s += f(spherical_direction(z, phi));
+        }
+    }
+    s * 4.0 * std::f64::consts::PI / (m * m) as f64
+}

@@ -4,7 +4,7 @@
 //! `pdf_le_*`). Emission is sampled in two steps, origin then direction, so that a light sub-path
 //! can draw its first wavelength in between (Jung Alg. 3). Lights are chosen ∝ power.
 
-use crate::geometry::frame::sample_cosine_hemisphere;
+use crate::geometry::frame::{sample_cosine_hemisphere, spherical_direction};
 use crate::geometry::{Frame, Sphere, Triangle};
 use crate::spectrum::{Distribution1D, Domain, Spectrum};
 use glam::Vec3;
@@ -103,10 +103,7 @@ impl AreaLight {
                 }
             }
             LightShape::Sphere { sphere, flip } => {
-                let z = 1.0 - 2.0 * v[0];
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let phi = 2.0 * PI * v[1];
-                let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                let d = spherical_direction(1.0 - 2.0 * v[0], 2.0 * PI * v[1]);
                 LightPoint {
                     p: sphere.center + d * sphere.radius,
                     n: if *flip { -d } else { d },
@@ -222,12 +219,6 @@ impl LightSet {
             .partition_point(|&c| c <= u)
             .min(self.lights.len() - 1);
         (i, self.pmf[i])
-    }
-
-    /// Probability of choosing light `i`.
-    #[inline]
-    pub fn pmf(&self, i: usize) -> f32 {
-        self.pmf[i]
     }
 
     /// Sample light arriving at point `p`: a light ∝ power (`u_light`) and a point on it by area
@@ -350,6 +341,7 @@ impl LightSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::frame::integrate_over_sphere;
     use crate::spectrum::DEFAULT_DOMAIN;
     use rand::{Rng, SeedableRng};
 
@@ -396,20 +388,9 @@ mod tests {
         // can be seen.
         assert!(hits > 0);
         for li in 0..2 {
-            // ∫ pdf_dir dω = 1 over the sphere (midpoint rule in (cos θ, φ)).
+            // ∫ pdf_dir dω = 1 over the sphere.
             let n = Vec3::new(0.0, -1.0, 0.0);
-            let m = 400;
-            let mut s = 0.0f64;
-            for i in 0..m {
-                let z = -1.0 + 2.0 * (i as f32 + 0.5) / m as f32;
-                for k in 0..m {
-                    let phi = 2.0 * PI * (k as f32 + 0.5) / m as f32;
-                    let r = (1.0 - z * z).sqrt();
-                    let w = Vec3::new(r * phi.cos(), z, r * phi.sin());
-                    s += set.pdf_le_direction(li, n, w) as f64;
-                }
-            }
-            let integral = s * 4.0 * std::f64::consts::PI / (m * m) as f64;
+            let integral = integrate_over_sphere(400, |w| set.pdf_le_direction(li, n, w) as f64);
             assert!((integral - 1.0).abs() < 1e-3, "light {li}: {integral}");
             // Sampled directions carry their pdf and the cosine weight.
             for _ in 0..1000 {

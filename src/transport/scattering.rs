@@ -7,7 +7,7 @@
 //! solid-angle density of sampling `wi` given `wo`; the reverse direction is `pdf(wi, wo)`.
 
 use crate::geometry::Frame;
-use crate::geometry::frame::sample_cosine_hemisphere;
+use crate::geometry::frame::{sample_cosine_hemisphere, spherical_direction};
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -33,7 +33,7 @@ pub struct DirectionSample {
     pub weight: f32,
 }
 
-/// The Henyey–Greenstein phase function of μ = wo·wi (both pointing away from the vertex):
+/// The Henyey–Greenstein phase function (Henyey & Greenstein 1941) of μ = wo·wi (both pointing away from the vertex):
 /// p = (1 − g²) / (4π (1 + g² + 2gμ)^{3/2}); forward scattering is μ = −1.
 #[inline]
 pub fn henyey_greenstein(mu: f32, g: f32) -> f32 {
@@ -112,9 +112,7 @@ fn sample_henyey_greenstein(wo: Vec3, g: f32, u: [f32; 2]) -> DirectionSample {
         let s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u[0]);
         (-(1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
     };
-    let sin = (1.0 - mu * mu).max(0.0).sqrt();
-    let phi = 2.0 * PI * u[1];
-    let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
+    let local = spherical_direction(mu, 2.0 * PI * u[1]);
     let p = henyey_greenstein(mu, g);
     DirectionSample {
         wi: Frame::from_normal(wo).to_world(local),
@@ -127,6 +125,7 @@ fn sample_henyey_greenstein(wo: Vec3, g: f32, u: [f32; 2]) -> DirectionSample {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::frame::integrate_over_sphere;
     use rand::{Rng, SeedableRng};
 
     fn lobes() -> Vec<Scattering> {
@@ -141,27 +140,12 @@ mod tests {
         ]
     }
 
-    /// A direction from (cos θ, φ) cells of a `m × m` grid over the sphere.
-    fn sphere_dir(z: f32, phi: f32) -> Vec3 {
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    }
-
     #[test]
     fn pdf_integrates_to_one() {
         let wo = Vec3::new(0.2, 0.5, 0.8).normalize();
         for lobe in lobes() {
             for wo in [wo, -wo] {
-                let m = 600;
-                let mut s = 0.0f64;
-                for i in 0..m {
-                    let z = -1.0 + 2.0 * (i as f32 + 0.5) / m as f32;
-                    for k in 0..m {
-                        let phi = 2.0 * PI * (k as f32 + 0.5) / m as f32;
-                        s += lobe.pdf(wo, sphere_dir(z, phi)) as f64;
-                    }
-                }
-                let integral = s * 4.0 * std::f64::consts::PI / (m * m) as f64;
+                let integral = integrate_over_sphere(600, |wi| lobe.pdf(wo, wi) as f64);
                 assert!((integral - 1.0).abs() < 2e-3, "{lobe:?}: ∫pdf = {integral}");
             }
         }
@@ -212,7 +196,8 @@ mod tests {
                         for b in 0..kp {
                             let phi =
                                 (ip as f32 + (b as f32 + 0.5) / kp as f32) * 2.0 * PI / np as f32;
-                            mass += lobe.pdf(wo, frame.to_world(sphere_dir(z, phi))) as f64;
+                            mass +=
+                                lobe.pdf(wo, frame.to_world(spherical_direction(z, phi))) as f64;
                         }
                     }
                     let k2 = (kz * kp) as f64;
