@@ -7,6 +7,7 @@ use crate::integrator::{
     IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
 };
 use crate::material::WavelengthSampling;
+use crate::medium::Tracking;
 use crate::scene::Scene;
 use crate::spectrum::cie::CameraWavelengths;
 use clap::Args;
@@ -62,6 +63,10 @@ pub struct RenderArgs {
     /// Bin width in nm (bdpt-allbins).
     #[arg(long, default_value_t = 5.0)]
     pub bin_width: f32,
+    /// Distance tracking in participating media (Mojzík §5): fluorescence-aware (eq. 6), the
+    /// max(σ̂t, σ̂s) hot-fix, or classic exponential sampling by σ̂t.
+    #[arg(long, value_enum, default_value = "aware")]
+    pub tracking: Tracking,
     /// Russian roulette from this many segments on (uni-directional tracers); off by default.
     #[arg(long)]
     pub rr_depth: Option<u32>,
@@ -84,6 +89,7 @@ impl RenderArgs {
             mis: self.mis,
             bin_width: self.bin_width,
             rr_depth: self.rr_depth,
+            tracking: self.tracking,
             strategy_images: self.strategy_images.is_some(),
         }
     }

@@ -14,6 +14,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("geometry", 0),
     ("film", 1),
     ("material", 1),
+    ("medium", 1),
     ("scene", 2),
     ("error", 3),
     ("transport", 3),

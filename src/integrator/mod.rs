@@ -11,6 +11,7 @@ pub mod render;
 pub use render::{RenderOutput, RenderSettings, check, render};
 
 use crate::material::WavelengthSampling;
+use crate::medium::Tracking;
 pub use crate::scene::LightWavelengths;
 use crate::scene::Scene;
 use crate::spectrum::cie::CameraWavelengths;
@@ -107,6 +108,8 @@ pub struct IntegratorOptions {
     pub bin_width: f32,
     /// Russian roulette from this many segments on (pt-mono, pt-hero); off when absent.
     pub rr_depth: Option<u32>,
+    /// Distance tracking in participating media.
+    pub tracking: Tracking,
     /// Accumulate one image per BDPT strategy (s, t).
     pub strategy_images: bool,
 }
@@ -122,6 +125,7 @@ impl Default for IntegratorOptions {
             mis: MisHeuristic::Balance,
             bin_width: 5.0,
             rr_depth: None,
+            tracking: Tracking::Aware,
             strategy_images: false,
         }
     }

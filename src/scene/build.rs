@@ -7,6 +7,7 @@ use super::format::{
     self, CameraDesc, EmissionDesc, FovAxis, MaterialDesc, ShapeDesc, ShapeGeometry,
 };
 use super::lights::{AreaLight, LightSet, LightShape};
+use super::media;
 use super::spectra::SpectrumContext;
 use super::{InputError, NONE, PrimInfo, Scene, ShapeInfo};
 use crate::geometry::{Accel, Camera, Sphere, Triangle};
@@ -52,10 +53,14 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         material_names.push(name.clone());
     }
 
+    let (media, medium_names) = media::media(&ctx, &f.media, &mut warnings)?;
+    let camera_medium = media::medium_id(&ctx, &medium_names, &f.camera.medium, "camera.medium")?;
+
     // Shapes and lights.
     let mut b = Builder::default();
     for (si, s) in shape_descs.iter().enumerate() {
-        b.add_shape(&ctx, &material_names, si, s)?;
+        let interface = media::interface(&ctx, &medium_names, s, &format!("shapes[{si}]"))?;
+        b.add_shape(&ctx, &material_names, si, s, interface)?;
     }
     if b.lights.is_empty() {
         return Err(at(
@@ -80,7 +85,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         .map(|t| t.normal_raw().normalize())
         .collect();
     let has_fluorescence = materials.iter().any(|m| m.is_fluorescent());
-    Ok(Scene {
+    let mut scene = Scene {
         file: path.to_path_buf(),
         domain,
         observer,
@@ -96,9 +101,34 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         lights: LightSet::new(b.lights),
         accel,
         has_fluorescence,
+        media,
+        medium_names,
+        camera_medium,
         has_media: false,
         warnings,
-    })
+    };
+    scene.has_media = media::check_usage(&scene)?;
+    if scene.has_media {
+        media::check_nesting(&scene)?;
+    }
+    for (name, m) in scene.medium_names.iter().zip(&scene.media) {
+        let used = scene.camera_medium != NONE
+            && scene.medium_names[scene.camera_medium as usize] == *name
+            || scene.shapes.iter().any(|s| {
+                s.interface.is_some_and(|i| {
+                    [i.interior, i.exterior]
+                        .iter()
+                        .any(|&k| k != NONE && scene.medium_names[k as usize] == *name)
+                })
+            });
+        if !used {
+            scene.warnings.push(format!(
+                "media.{name} is never used: no shape has it as `interior` or `exterior`"
+            ));
+        }
+        let _ = m;
+    }
+    Ok(scene)
 }
 
 /// An error at JSON path `field` of `file`.
@@ -281,6 +311,7 @@ impl Builder {
         material_names: &[String],
         si: usize,
         s: &ShapeDesc,
+        interface: Option<media::MediumInterface>,
     ) -> Result<(), InputError> {
         let base = format!("shapes[{si}]");
         let err = |p: &str, m: String| shape_err(ctx.file, &base, p, m);
@@ -300,17 +331,12 @@ impl Builder {
                     )
                 })?,
         };
-        if material == NONE && s.emission.is_none() {
-            return Err(err(
-                "material",
-                "a shape needs a `material`, an `emission`, or both".into(),
-            ));
-        }
         let shape_id = self.shapes.len() as u32;
         let name = s.name.clone().unwrap_or_else(|| format!("shape{si}"));
         self.shapes.push(ShapeInfo {
             name: name.clone(),
             material,
+            interface,
         });
         let light_id = if s.emission.is_some() {
             self.lights.len() as u32

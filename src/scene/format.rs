@@ -31,6 +31,9 @@ pub struct SceneFile {
     /// Named materials, each a [`MaterialDesc`] (read by the builder, after the spectra).
     #[serde(default)]
     pub materials: BTreeMap<String, Value>,
+    /// Named media, each a [`MediumDesc`] (read by the builder, after the spectra).
+    #[serde(default)]
+    pub media: BTreeMap<String, Value>,
     /// Each a [`ShapeDesc`]; [`read`] reads them.
     pub shapes: Vec<Value>,
 }
@@ -61,6 +64,9 @@ pub struct CameraDesc {
     pub fov_axis: FovAxis,
     pub width: u32,
     pub height: u32,
+    /// The medium the camera sits in (none: vacuum).
+    #[serde(default)]
+    pub medium: Option<String>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -96,6 +102,55 @@ pub enum MaterialDesc {
     },
 }
 
+/// A participating medium, by its `type`; spectra are left as JSON values for `spectra.rs`.
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum MediumDesc {
+    Homogeneous {
+        sigma_a: Value,
+        sigma_s: Value,
+        #[serde(default)]
+        phase: PhaseDesc,
+        #[serde(default)]
+        fluorescence: Option<FluorescenceDesc>,
+    },
+    /// A density grid (Mitsuba `.vol` file, relative to the scene's folder) scaling the
+    /// coefficients.
+    Grid {
+        file: String,
+        #[serde(default = "one")]
+        density_scale: f32,
+        sigma_a: Value,
+        sigma_s: Value,
+        #[serde(default)]
+        phase: PhaseDesc,
+        #[serde(default)]
+        fluorescence: Option<FluorescenceDesc>,
+    },
+}
+
+/// The phase function of a medium.
+#[derive(Deserialize, Default)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum PhaseDesc {
+    #[default]
+    Isotropic,
+    HenyeyGreenstein {
+        g: f32,
+    },
+}
+
+/// The fluorophore of a medium: absorption a(λ) at a concentration (extinction per scene
+/// unit at the peak of a), emission e(λ) and quantum yield Φ.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluorescenceDesc {
+    pub absorption: Value,
+    pub concentration: f32,
+    pub emission: Value,
+    pub quantum_yield: f32,
+}
+
 /// The emission of a shape that is a light.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -115,6 +170,9 @@ fn one() -> f32 {
 pub struct ShapeDesc {
     pub name: Option<String>,
     pub material: Option<String>,
+    /// The media inside and outside the shape (its normal points outside).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     pub emission: Option<EmissionDesc>,
     pub flip_normals: bool,
     pub geometry: ShapeGeometry,
@@ -164,6 +222,10 @@ macro_rules! shape_kinds {
                     #[serde(default)]
                     pub material: Option<String>,
                     #[serde(default)]
+                    pub interior: Option<String>,
+                    #[serde(default)]
+                    pub exterior: Option<String>,
+                    #[serde(default)]
                     pub emission: Option<EmissionDesc>,
                     #[serde(default)]
                     pub flip_normals: bool,
@@ -185,6 +247,8 @@ macro_rules! shape_kinds {
                     ShapeDesc {
                         name: s.name,
                         material: s.material,
+                        interior: s.interior,
+                        exterior: s.exterior,
                         emission: s.emission,
                         flip_normals: s.flip_normals,
                         geometry: ShapeGeometry::$kind { $($field: s.$field),* },

@@ -6,13 +6,16 @@ mod build;
 pub mod error;
 mod format;
 pub mod lights;
+pub mod media;
 pub mod spectra;
 
 pub use error::InputError;
 pub use lights::{AreaLight, LightPoint, LightSet, LightShape, LightWavelengths};
+pub use media::MediumInterface;
 
 use crate::geometry::{Accel, Camera, Ray, Sphere, Triangle};
 use crate::material::Material;
+use crate::medium::Medium;
 use crate::spectrum::{Domain, Observer};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -32,6 +35,8 @@ pub struct PrimInfo {
 pub struct ShapeInfo {
     pub name: String,
     pub material: u32,
+    /// The media on its two sides, if it names any.
+    pub interface: Option<MediumInterface>,
 }
 
 /// A surface point found by a ray.
@@ -65,6 +70,12 @@ pub struct Scene {
     pub lights: LightSet,
     pub accel: Accel,
     pub has_fluorescence: bool,
+    /// The participating media and their names (ids index both).
+    pub media: Vec<Medium>,
+    pub medium_names: Vec<String>,
+    /// The medium the camera sits in ([`NONE`]: vacuum).
+    pub camera_medium: u32,
+    /// True when a shape or the camera is in a medium.
     pub has_media: bool,
     pub warnings: Vec<String>,
 }
@@ -117,6 +128,27 @@ impl Scene {
             let n = (p - s.center) / s.radius;
             if self.sphere_flip[k] { -n } else { n }
         }
+    }
+
+    /// The medium interface of the surface `it`, if its shape has one.
+    #[inline]
+    pub fn interface(&self, it: &Interaction) -> Option<MediumInterface> {
+        self.shapes[self.prims[it.prim as usize].shape as usize].interface
+    }
+
+    /// The medium a ray in medium `current` is in after leaving surface `it` in direction `d`.
+    #[inline]
+    pub fn medium_after(&self, it: &Interaction, d: Vec3, current: u32) -> u32 {
+        match self.interface(it) {
+            Some(i) => i.towards(it.n, d),
+            None => current,
+        }
+    }
+
+    /// The medium `id` ([`NONE`]: vacuum).
+    #[inline]
+    pub fn medium(&self, id: u32) -> Option<&Medium> {
+        self.media.get(id as usize)
     }
 
     pub fn material(&self, id: u32) -> Option<&Material> {

@@ -5,16 +5,20 @@
 //!   in both directions), diffuse on surfaces, Henyey–Greenstein in media.
 //! - [`vertex`]: the bidirectional path vertex with its area pdfs ([`Vertex`]).
 //! - [`visibility`]: [`transmittance`] between two vertices.
+//! - [`media`]: free flights through participating media and spectral transmittance through
+//!   index-matched boundaries ([`travel`], [`transmittance_lanes`]).
 //! - Light sampling (pbrt-v4's four operations) is [`crate::scene::LightSet`], owned by the
 //!   scene; spectral scattering (the new wavelength at a vertex) is [`crate::material::Material`].
 //!
 //! Layering: `spectrum`, `geometry` < `material` < `scene` < `transport` < `integrator` <
 //! `experiment` < `cli`; no module imports from one above it.
 
+pub mod media;
 pub mod scattering;
 pub mod vertex;
 pub mod visibility;
 
+pub use media::{Travel, transmittance_lanes, travel};
 pub use scattering::{DirectionSample, Scattering};
 pub use vertex::{Vertex, VertexKind};
 pub use visibility::{Endpoint, Transmittance, transmittance};

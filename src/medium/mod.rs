@@ -1,0 +1,28 @@
+//! Participating media (Mojzík 2018 §5–7): homogeneous and grid media whose collisions may shift
+//! wavelengths, their coefficients (Table 1) and the distance-tracking schemes.
+//!
+//! - [`coefficients`]: σa, σs and the fluorophore; σ̂t, σ̂s and the in-shift draw.
+//! - [`tracking`]: exponential, max hot-fix and fluorescence-aware free flights (eq. 6).
+//! - [`grid`]: density grids read from Mitsuba `.vol` files, the majorant grid and its DDA.
+
+pub mod coefficients;
+pub mod tracking;
+
+pub use coefficients::{Coefficients, CollisionCoefficients, Fluorophore, InShift};
+pub use tracking::{Flight, FreeFlight, Tracking};
+
+/// A medium: its coefficients per unit density, its phase function and its density.
+#[derive(Clone, Debug)]
+pub struct Medium {
+    pub coefficients: Coefficients,
+    /// Henyey–Greenstein asymmetry (0: isotropic).
+    pub g: f32,
+    pub density: Density,
+}
+
+/// Where the medium's density comes from.
+#[derive(Clone, Debug)]
+pub enum Density {
+    /// Density 1 everywhere inside the medium's boundary.
+    Homogeneous,
+}

@@ -1,0 +1,353 @@
+//! Media in a scene: building the named media of the file, the medium interfaces of shapes
+//! (`interior`/`exterior`) and the camera's medium, and checking that they nest consistently.
+//!
+//! The conventions are pbrt-v4's and Mitsuba's: a shape's normal points to its exterior; a shape
+//! with an interface changes the medium a ray is in when the ray crosses it, one without leaves
+//! it unchanged; a shape with no material and no emission is an index-matched boundary:
+//! invisible, and not a bounce.
+
+use super::error::from_json_value;
+use super::format::{FluorescenceDesc, MediumDesc, PhaseDesc, ShapeDesc};
+use super::spectra::SpectrumContext;
+use super::{InputError, NONE, Scene};
+use crate::geometry::ray::spawn_ray;
+use crate::medium::{Coefficients, Density, Fluorophore, Medium};
+use crate::spectrum::Spectrum;
+use serde_json::Value;
+use std::collections::BTreeMap;
+
+/// The media on the two sides of a shape (ids into `Scene::media`, [`NONE`] for vacuum).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MediumInterface {
+    pub interior: u32,
+    pub exterior: u32,
+}
+
+impl MediumInterface {
+    /// The medium on the side of a surface with normal `n` that direction `d` leaves towards.
+    #[inline]
+    pub fn towards(&self, n: glam::Vec3, d: glam::Vec3) -> u32 {
+        if n.dot(d) > 0.0 {
+            self.exterior
+        } else {
+            self.interior
+        }
+    }
+}
+
+/// Build the media of the file: (media, names).
+pub fn media(
+    ctx: &SpectrumContext,
+    descs: &BTreeMap<String, Value>,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Medium>, Vec<String>), InputError> {
+    let mut media = Vec::new();
+    let mut names = Vec::new();
+    for (name, v) in descs {
+        let base = format!("media.{name}");
+        let desc: MediumDesc = from_json_value(ctx.file, &base, v)?;
+        media.push(medium(ctx, &base, desc, warnings)?);
+        names.push(name.clone());
+    }
+    Ok((media, names))
+}
+
+/// A spectrum that must be finite and non-negative over the domain.
+fn coefficient(ctx: &SpectrumContext, v: &Value, path: &str) -> Result<Spectrum, InputError> {
+    let s = ctx.parse(v, path)?;
+    let lo = s.min_value(ctx.domain);
+    if !(lo >= 0.0) || !s.max_value(ctx.domain).is_finite() {
+        return Err(InputError::new(
+            ctx.file,
+            path,
+            format!("a coefficient must be finite and non-negative, its minimum is {lo}"),
+        ));
+    }
+    Ok(s)
+}
+
+fn medium(
+    ctx: &SpectrumContext,
+    base: &str,
+    desc: MediumDesc,
+    warnings: &mut Vec<String>,
+) -> Result<Medium, InputError> {
+    let (sigma_a, sigma_s, phase, fluorescence, density) = match desc {
+        MediumDesc::Homogeneous {
+            sigma_a,
+            sigma_s,
+            phase,
+            fluorescence,
+        } => (sigma_a, sigma_s, phase, fluorescence, Density::Homogeneous),
+        MediumDesc::Grid {
+            file,
+            density_scale,
+            sigma_a,
+            sigma_s,
+            phase,
+            fluorescence,
+        } => {
+            let d = grid_density(ctx, base, &file, density_scale)?;
+            (sigma_a, sigma_s, phase, fluorescence, d)
+        }
+    };
+    let g = match phase {
+        PhaseDesc::Isotropic => 0.0,
+        PhaseDesc::HenyeyGreenstein { g } => {
+            if !(g > -1.0 && g < 1.0) {
+                return Err(InputError::new(
+                    ctx.file,
+                    format!("{base}.phase.g"),
+                    format!("must be in (−1, 1), got {g}"),
+                ));
+            }
+            g
+        }
+    };
+    let coefficients = Coefficients {
+        sigma_a: coefficient(ctx, &sigma_a, &format!("{base}.sigma_a"))?,
+        sigma_s: coefficient(ctx, &sigma_s, &format!("{base}.sigma_s"))?,
+        fluorophore: match fluorescence {
+            None => None,
+            Some(f) => Some(fluorophore(
+                ctx,
+                &format!("{base}.fluorescence"),
+                f,
+                warnings,
+            )?),
+        },
+    };
+    Ok(Medium {
+        coefficients,
+        g,
+        density,
+    })
+}
+
+/// The density of a grid medium: the `.vol` file `file` scaled by `scale`.
+fn grid_density(
+    ctx: &SpectrumContext,
+    base: &str,
+    file: &str,
+    scale: f32,
+) -> Result<Density, InputError> {
+    if !(scale.is_finite() && scale >= 0.0) {
+        return Err(InputError::new(
+            ctx.file,
+            format!("{base}.density_scale"),
+            format!("must be a finite non-negative number, got {scale}"),
+        ));
+    }
+    let _ = file;
+    Err(InputError::new(
+        ctx.file,
+        format!("{base}.file"),
+        "grid media are not available in this build".to_string(),
+    ))
+}
+
+fn fluorophore(
+    ctx: &SpectrumContext,
+    base: &str,
+    f: FluorescenceDesc,
+    warnings: &mut Vec<String>,
+) -> Result<Fluorophore, InputError> {
+    let err = |field: &str, m: String| InputError::new(ctx.file, format!("{base}.{field}"), m);
+    if !(0.0..=1.0).contains(&f.quantum_yield) {
+        return Err(err(
+            "quantum_yield",
+            format!("must be in [0, 1], got {}", f.quantum_yield),
+        ));
+    }
+    if !(f.concentration.is_finite() && f.concentration >= 0.0) {
+        return Err(err(
+            "concentration",
+            format!(
+                "must be a finite non-negative extinction per scene unit, got {}",
+                f.concentration
+            ),
+        ));
+    }
+    let domain = ctx.domain;
+    let a = coefficient(ctx, &f.absorption, &format!("{base}.absorption"))?;
+    let e = coefficient(ctx, &f.emission, &format!("{base}.emission"))?;
+    let a_max = a.max_value(domain);
+    if !(a_max > 0.0) {
+        return Err(err(
+            "absorption",
+            "is zero on the whole wavelength domain".into(),
+        ));
+    }
+    let e_area = e.integral(domain.min, domain.max) as f32;
+    if !(e_area > 0.0) {
+        return Err(err(
+            "emission",
+            "is zero on the whole wavelength domain".into(),
+        ));
+    }
+    if (a_max - 1.0).abs() > 1e-3 {
+        warnings.push(format!(
+            "{base}.absorption: max is {a_max}, not 1: normalised (the concentration is the peak extinction)"
+        ));
+    }
+    if (e_area - 1.0).abs() > 1e-3 {
+        warnings.push(format!(
+            "{base}.emission: area {e_area} nm on the domain, not 1: normalised"
+        ));
+    }
+    Ok(Fluorophore::new(
+        a.scaled(1.0 / a_max),
+        f.concentration,
+        e.scaled(1.0 / e_area),
+        f.quantum_yield,
+        domain,
+    ))
+}
+
+/// Resolve a medium name at JSON path `path` (`None`: vacuum).
+pub fn medium_id(
+    ctx: &SpectrumContext,
+    names: &[String],
+    name: &Option<String>,
+    path: &str,
+) -> Result<u32, InputError> {
+    let Some(name) = name else { return Ok(NONE) };
+    names
+        .iter()
+        .position(|n| n == name)
+        .map(|i| i as u32)
+        .ok_or_else(|| {
+            InputError::new(
+                ctx.file,
+                path,
+                if names.is_empty() {
+                    format!("unknown medium '{name}': the scene defines no `media`")
+                } else {
+                    format!("unknown medium '{name}' (defined: {})", names.join(", "))
+                },
+            )
+        })
+}
+
+/// The interface of shape `s` at JSON path `base`, if it names a medium.
+pub fn interface(
+    ctx: &SpectrumContext,
+    names: &[String],
+    s: &ShapeDesc,
+    base: &str,
+) -> Result<Option<MediumInterface>, InputError> {
+    if s.interior.is_none() && s.exterior.is_none() {
+        if s.material.is_none() && s.emission.is_none() {
+            return Err(InputError::new(
+                ctx.file,
+                format!("{base}.material"),
+                "a shape needs a `material`, an `emission`, or both; without them it is an \
+                 index-matched boundary and must name an `interior` or `exterior` medium"
+                    .to_string(),
+            ));
+        }
+        return Ok(None);
+    }
+    Ok(Some(MediumInterface {
+        interior: medium_id(ctx, names, &s.interior, &format!("{base}.interior"))?,
+        exterior: medium_id(ctx, names, &s.exterior, &format!("{base}.exterior"))?,
+    }))
+}
+
+/// Check which media are used: an error for a medium that is only ever an `exterior` (it can
+/// never be entered), a warning for one nobody names. Returns whether any medium is used.
+pub fn check_usage(scene: &Scene) -> Result<bool, InputError> {
+    let n = scene.media.len();
+    let mut interior = vec![false; n];
+    let mut exterior_of: Vec<Option<usize>> = vec![None; n];
+    let mut used = false;
+    for (si, s) in scene.shapes.iter().enumerate() {
+        if let Some(i) = s.interface {
+            if i.interior != NONE {
+                interior[i.interior as usize] = true;
+                used = true;
+            }
+            if i.exterior != NONE {
+                exterior_of[i.exterior as usize].get_or_insert(si);
+                used = true;
+            }
+        }
+    }
+    if scene.camera_medium != NONE {
+        interior[scene.camera_medium as usize] = true;
+        used = true;
+    }
+    for (m, name) in scene.medium_names.iter().enumerate() {
+        if let Some(si) = exterior_of[m].filter(|_| !interior[m]) {
+            let shape = &scene.shapes[si].name;
+            return Err(InputError::new(
+                &scene.file,
+                format!("shapes[{si}].exterior"),
+                format!(
+                    "medium '{name}' is the exterior of shape '{shape}' but no shape has it as \
+                     `interior` and the camera is not in it: it can never be entered"
+                ),
+            ));
+        }
+    }
+    Ok(used)
+}
+
+/// Follow probe rays from the camera through every surface and check that each interface a ray
+/// crosses has, on the side the ray comes from, the medium the ray is in. Errors name both
+/// shapes involved.
+pub fn check_nesting(scene: &Scene) -> Result<(), InputError> {
+    const PROBES: u32 = 24;
+    let (w, h) = (scene.camera.width as f32, scene.camera.height as f32);
+    let medium_name = |m: u32| {
+        if m == NONE {
+            "vacuum".to_string()
+        } else {
+            format!("'{}'", scene.medium_names[m as usize])
+        }
+    };
+    for py in 0..PROBES {
+        for px in 0..PROBES {
+            let x = (px as f32 + 0.5) / PROBES as f32 * w;
+            let y = (py as f32 + 0.5) / PROBES as f32 * h;
+            let mut ray = scene.camera.generate_ray(x, y);
+            let mut current = scene.camera_medium;
+            let mut from = "the camera (`camera.medium`)".to_string();
+            for _ in 0..256 {
+                let Some(it) = scene.intersect(&ray, f32::INFINITY) else {
+                    break;
+                };
+                let si = scene.prims[it.prim as usize].shape as usize;
+                if let Some(i) = scene.shapes[si].interface {
+                    let (near, far) = if it.n.dot(ray.d) < 0.0 {
+                        (i.exterior, i.interior)
+                    } else {
+                        (i.interior, i.exterior)
+                    };
+                    let side = if near == i.exterior {
+                        "exterior"
+                    } else {
+                        "interior"
+                    };
+                    let shape = &scene.shapes[si].name;
+                    if near != current {
+                        return Err(InputError::new(
+                            &scene.file,
+                            format!("shapes[{si}].{side}"),
+                            format!(
+                                "inconsistent media: shape '{shape}' has {} as its {side}, but a \
+                                 ray from the camera reaches that side through {} (entered at {from})",
+                                medium_name(near),
+                                medium_name(current)
+                            ),
+                        ));
+                    }
+                    current = far;
+                    from = format!("shape '{shape}'");
+                }
+                ray = spawn_ray(it.p, it.n, ray.d);
+            }
+        }
+    }
+    Ok(())
+}
