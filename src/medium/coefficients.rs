@@ -63,6 +63,9 @@ pub struct Coefficients {
     pub sigma_a: Spectrum,
     pub sigma_s: Spectrum,
     pub fluorophore: Option<Fluorophore>,
+    /// (σ̂t, σ̂s = σs) when they do not depend on wavelength (constant spectra, no fluorophore):
+    /// every lane then tracks alike and the tracers skip the per-lane work.
+    pub grey: Option<(f32, f32)>,
 }
 
 /// The coefficients of Mojzík Table 1 at the first `n` lanes of a wavelength vector.
@@ -91,6 +94,19 @@ pub struct InShift {
 }
 
 impl Coefficients {
+    pub fn new(sigma_a: Spectrum, sigma_s: Spectrum, fluorophore: Option<Fluorophore>) -> Self {
+        let grey = match (&sigma_a, &sigma_s, &fluorophore) {
+            (Spectrum::Constant(a), Spectrum::Constant(s), None) => Some((a + s, *s)),
+            _ => None,
+        };
+        Coefficients {
+            sigma_a,
+            sigma_s,
+            fluorophore,
+            grey,
+        }
+    }
+
     /// True when the medium shifts wavelengths.
     pub fn is_fluorescent(&self) -> bool {
         self.fluorophore
@@ -181,11 +197,11 @@ mod tests {
         let a = Spectrum::gaussian_fwhm(450.0, 40.0, 1.0);
         let e = Spectrum::gaussian_fwhm(550.0, 40.0, 1.0);
         let area = e.integral(d.min, d.max) as f32;
-        Coefficients {
-            sigma_a: Spectrum::Constant(0.1),
-            sigma_s: Spectrum::Constant(0.3),
-            fluorophore: Some(Fluorophore::new(a, 2.0, e.scaled(1.0 / area), 0.8, d)),
-        }
+        Coefficients::new(
+            Spectrum::Constant(0.1),
+            Spectrum::Constant(0.3),
+            Some(Fluorophore::new(a, 2.0, e.scaled(1.0 / area), 0.8, d)),
+        )
     }
 
     #[test]

@@ -8,7 +8,8 @@
 //! max hot-fix, and (σ̂s, σ̂t) for fluorescence-aware tracking (eq. 5 and Appendix A). With a = b
 //! the normaliser is 1 and this is classic exponential tracking; with a ≠ b it is eq. 6 in the
 //! stable form of docs/design.md §5, which holds as b → 0 (uniform sampling of [0, d]), a → 0
-//! (always pass), b·d → ∞ (exponential) and d → 0. Everything is computed in f64.
+//! (always pass), b·d → ∞ (exponential) and d → 0. It is computed in f32 (1 − e^(−x) by its
+//! series for small x), in f64 only where a·d would overflow.
 
 use serde::{Deserialize, Serialize};
 
@@ -44,10 +45,15 @@ pub struct FreeFlight {
     pub b: f32,
 }
 
-/// φ(x) = −expm1(−x)/x, → 1 as x → 0 and 1/x as x → ∞.
-#[inline]
-fn phi(x: f64) -> f64 {
-    if x > 0.0 { -(-x).exp_m1() / x } else { 1.0 }
+/// 1 − e^(−x) for x ≥ 0, accurate as x → 0, given e^(−x).
+#[inline(always)]
+fn one_minus_exp(x: f32, e: f32) -> f32 {
+    if x < 0.03 {
+        // Taylor series: the subtraction would cancel (error below 1e-9 relative here).
+        x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))))
+    } else {
+        1.0 - e
+    }
 }
 
 impl FreeFlight {
@@ -67,88 +73,97 @@ impl FreeFlight {
 
     /// The (a, b) actually used over a stretch of length `d`: with d = ∞ and b = 0 the aware
     /// density cannot be normalised, and it falls back to the max hot-fix (docs/design.md §5).
-    #[inline]
-    fn effective(&self, d: f32) -> (f64, f64) {
+    #[inline(always)]
+    fn effective(&self, d: f32) -> (f32, f32) {
         if d.is_infinite() && self.b <= 0.0 {
-            let m = self.a.max(self.b) as f64;
+            let m = self.a.max(self.b);
             (m, m)
         } else {
-            (self.a as f64, self.b as f64)
+            (self.a, self.b)
         }
     }
 
-    /// The normaliser n and the terms e^(−x), a·d·φ(x) for a stretch of length `d`.
-    #[inline]
-    fn terms(a: f64, b: f64, d: f64) -> (f64, f64) {
+    /// The two terms of the normaliser for a stretch of length `d`: e^(−b·d) and a·d·φ(b·d)
+    /// = (a/b)·(1 − e^(−b·d)). In f32, falling back to f64 where a·d overflows.
+    #[inline(always)]
+    fn terms(a: f32, b: f32, d: f32) -> (f32, f32) {
         if d.is_infinite() {
             // e^(−∞) = 0; a·d·φ(b·d) → a/b.
             return (0.0, if a > 0.0 { a / b } else { 0.0 });
         }
         let x = b * d;
         let pass = (-x).exp();
-        let coll = if a > 0.0 { a * d * phi(x) } else { 0.0 };
-        (pass, coll)
+        if !(a > 0.0) {
+            return (pass, 0.0);
+        }
+        let coll = if x < 0.03 {
+            a * d * (one_minus_exp(x, pass) / x.max(f32::MIN_POSITIVE)).min(1.0)
+        } else {
+            a / b * (1.0 - pass)
+        };
+        let coll = if x == 0.0 { a * d } else { coll };
+        if coll.is_finite() {
+            (pass, coll)
+        } else {
+            let (a, b, d) = (a as f64, b as f64, d as f64);
+            let x = b * d;
+            let phi = if x > 0.0 { -(-x).exp_m1() / x } else { 1.0 };
+            (pass, (a * d * phi).min(f32::MAX as f64) as f32)
+        }
     }
 
     /// Sample a flight over a stretch of length `d` (may be ∞) from `u` in [0, 1).
     #[inline]
     pub fn sample(&self, d: f32, u: f32) -> Flight {
         let (a, b) = self.effective(d);
-        let d64 = d as f64;
-        let (pass, coll) = Self::terms(a, b, d64);
+        let (pass, coll) = Self::terms(a, b, d);
         let n = pass + coll;
         if !(coll > 0.0) || !(n > 0.0) {
             return Flight::Pass { prob: 1.0 };
         }
         let p_coll = coll / n;
-        let u = u as f64;
         if u >= p_coll {
-            return Flight::Pass {
-                prob: (pass / n) as f32,
-            };
+            return Flight::Pass { prob: pass / n };
         }
-        let zeta = (u / p_coll).min(1.0 - 1e-12);
+        let zeta = (u / p_coll).min(1.0 - f32::EPSILON);
         // Inverse of the conditional CDF (1 − e^(−b·t)) / (1 − e^(−b·d)) (Appendix A, eq. 6).
         let t = if d.is_infinite() {
             -(-zeta).ln_1p() / b
         } else {
-            let x = b * d64;
+            let x = b * d;
             let s = if x > 0.0 {
-                -(zeta * (-x).exp_m1()).ln_1p() / x
+                -(-zeta * one_minus_exp(x, pass)).ln_1p() / x
             } else {
                 zeta
             };
-            d64 * s.clamp(0.0, 1.0)
+            d * s.clamp(0.0, 1.0)
         };
         let pdf = a * (-b * t).exp() / n;
-        Flight::Collision {
-            t: t as f32,
-            pdf: pdf as f32,
-        }
+        Flight::Collision { t, pdf }
     }
 
     /// The density of a collision at `t` over a stretch of length `d`.
     #[inline]
     pub fn pdf_collision(&self, t: f32, d: f32) -> f32 {
         let (a, b) = self.effective(d);
-        let (pass, coll) = Self::terms(a, b, d as f64);
+        let (pass, coll) = Self::terms(a, b, d);
         let n = pass + coll;
-        if !(coll > 0.0) || !(n > 0.0) || t as f64 > d as f64 {
+        if !(coll > 0.0) || !(n > 0.0) || t > d {
             return 0.0;
         }
-        (a * (-b * t as f64).exp() / n) as f32
+        a * (-b * t).exp() / n
     }
 
     /// The probability of passing a stretch of length `d` without a collision.
     #[inline]
     pub fn pdf_pass(&self, d: f32) -> f32 {
         let (a, b) = self.effective(d);
-        let (pass, coll) = Self::terms(a, b, d as f64);
+        let (pass, coll) = Self::terms(a, b, d);
         let n = pass + coll;
         if !(coll > 0.0) || !(n > 0.0) {
             return 1.0;
         }
-        (pass / n) as f32
+        pass / n
     }
 }
 

@@ -104,19 +104,20 @@ fn medium(
             g
         }
     };
-    let coefficients = Coefficients {
-        sigma_a: coefficient(ctx, &sigma_a, &format!("{base}.sigma_a"))?,
-        sigma_s: coefficient(ctx, &sigma_s, &format!("{base}.sigma_s"))?,
-        fluorophore: match fluorescence {
-            None => None,
-            Some(f) => Some(fluorophore(
-                ctx,
-                &format!("{base}.fluorescence"),
-                f,
-                warnings,
-            )?),
-        },
+    let fluorophore = match fluorescence {
+        None => None,
+        Some(f) => Some(fluorophore(
+            ctx,
+            &format!("{base}.fluorescence"),
+            f,
+            warnings,
+        )?),
     };
+    let coefficients = Coefficients::new(
+        coefficient(ctx, &sigma_a, &format!("{base}.sigma_a"))?,
+        coefficient(ctx, &sigma_s, &format!("{base}.sigma_s"))?,
+        fluorophore,
+    );
     Ok(Medium {
         coefficients,
         g,

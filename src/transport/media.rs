@@ -54,6 +54,23 @@ fn travel_homogeneous<L: Lanes>(
     mode: Tracking,
     u: f32,
 ) -> Travel<L> {
+    if let Some((hat_t, hat_s)) = medium.coefficients.grey {
+        // Every lane tracks alike: ratios are 1.
+        let one = L::splat_n(n, 1.0);
+        let f = FreeFlight::new(mode, hat_t, hat_s);
+        return match f.sample(d, u) {
+            Flight::Collision { t, pdf } => Travel::Collision {
+                t,
+                factor: L::splat_n(n, (-hat_t * t).exp() / pdf),
+                ratio: one,
+            },
+            Flight::Pass { prob } => Travel::Pass {
+                factor: L::splat_n(n, transmittance(hat_t, d) / prob),
+                ratio: one,
+                pass: L::splat_n(n, prob),
+            },
+        };
+    }
     let c = medium.coefficients.at(n, lambda);
     let flight = |j: usize| FreeFlight::new(mode, c.hat_t.lane(j), c.hat_s.lane(j));
     match flight(0).sample(d, u) {
@@ -75,17 +92,21 @@ fn travel_homogeneous<L: Lanes>(
             let pass = L::from_fn(n, |j| if j == 0 { prob } else { flight(j).pdf_pass(d) });
             let inv = 1.0 / prob;
             Travel::Pass {
-                factor: L::from_fn(n, |j| {
-                    if d.is_infinite() {
-                        0.0
-                    } else {
-                        (-c.hat_t.lane(j) * d).exp() * inv
-                    }
-                }),
+                factor: L::from_fn(n, |j| transmittance(c.hat_t.lane(j), d) * inv),
                 ratio: pass * inv,
                 pass,
             }
         }
+    }
+}
+
+/// e^(−σ·d), 0 for an infinite stretch (nothing comes back from infinity).
+#[inline(always)]
+fn transmittance(sigma: f32, d: f32) -> f32 {
+    if d.is_infinite() {
+        0.0
+    } else {
+        (-sigma * d).exp()
     }
 }
 
@@ -95,9 +116,16 @@ fn travel_homogeneous<L: Lanes>(
 fn stretch<L: Lanes>(medium: &Medium, len: f32, lambda: L, n: usize, mode: Tracking) -> (L, L) {
     match &medium.density {
         Density::Homogeneous => {
+            if let Some((hat_t, hat_s)) = medium.coefficients.grey {
+                let pass = FreeFlight::new(mode, hat_t, hat_s).pdf_pass(len);
+                return (
+                    L::splat_n(n, transmittance(hat_t, len)),
+                    L::splat_n(n, pass),
+                );
+            }
             let c = medium.coefficients.at(n, lambda);
             (
-                L::from_fn(n, |j| (-c.hat_t.lane(j) * len).exp()),
+                L::from_fn(n, |j| transmittance(c.hat_t.lane(j), len)),
                 L::from_fn(n, |j| {
                     FreeFlight::new(mode, c.hat_t.lane(j), c.hat_s.lane(j)).pdf_pass(len)
                 }),
