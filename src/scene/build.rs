@@ -107,9 +107,11 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         has_media: false,
         warnings,
     };
-    scene.has_media = media::check_usage(&scene)?;
+    scene.has_media =
+        scene.camera_medium != NONE || scene.shapes.iter().any(|s| s.interface.is_some());
     if scene.has_media {
         media::check_nesting(&scene)?;
+        media::check_usage(&scene)?;
     }
     for (name, m) in scene.medium_names.iter().zip(&scene.media) {
         let used = scene.camera_medium != NONE

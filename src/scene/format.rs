@@ -102,17 +102,20 @@ pub enum MaterialDesc {
     },
 }
 
-/// A participating medium, by its `type`; spectra are left as JSON values for `spectra.rs`.
+/// A participating medium, by its `type`; spectra, the phase function and the fluorophore are
+/// left as JSON values (serde loses the JSON path of errors inside an internally tagged enum).
 #[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MediumDesc {
     Homogeneous {
         sigma_a: Value,
         sigma_s: Value,
+        /// A [`PhaseDesc`], read by the builder (so that errors inside keep their path).
         #[serde(default)]
-        phase: PhaseDesc,
+        phase: Option<Value>,
+        /// A [`FluorescenceDesc`], read by the builder.
         #[serde(default)]
-        fluorescence: Option<FluorescenceDesc>,
+        fluorescence: Option<Value>,
     },
     /// A density grid (Mitsuba `.vol` file, relative to the scene's folder) scaling the
     /// coefficients.
@@ -122,10 +125,12 @@ pub enum MediumDesc {
         density_scale: f32,
         sigma_a: Value,
         sigma_s: Value,
+        /// A [`PhaseDesc`], read by the builder (so that errors inside keep their path).
         #[serde(default)]
-        phase: PhaseDesc,
+        phase: Option<Value>,
+        /// A [`FluorescenceDesc`], read by the builder.
         #[serde(default)]
-        fluorescence: Option<FluorescenceDesc>,
+        fluorescence: Option<Value>,
     },
 }
 

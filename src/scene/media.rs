@@ -91,6 +91,18 @@ fn medium(
             (sigma_a, sigma_s, phase, fluorescence, d)
         }
     };
+    let phase: PhaseDesc = match phase {
+        None => PhaseDesc::Isotropic,
+        Some(v) => from_json_value(ctx.file, &format!("{base}.phase"), &v)?,
+    };
+    let fluorescence: Option<FluorescenceDesc> = match fluorescence {
+        None => None,
+        Some(v) => Some(from_json_value(
+            ctx.file,
+            &format!("{base}.fluorescence"),
+            &v,
+        )?),
+    };
     let g = match phase {
         PhaseDesc::Isotropic => 0.0,
         PhaseDesc::HenyeyGreenstein { g } => {
@@ -256,27 +268,23 @@ pub fn interface(
 }
 
 /// Check which media are used: an error for a medium that is only ever an `exterior` (it can
-/// never be entered), a warning for one nobody names. Returns whether any medium is used.
-pub fn check_usage(scene: &Scene) -> Result<bool, InputError> {
+/// never be entered).
+pub fn check_usage(scene: &Scene) -> Result<(), InputError> {
     let n = scene.media.len();
     let mut interior = vec![false; n];
     let mut exterior_of: Vec<Option<usize>> = vec![None; n];
-    let mut used = false;
     for (si, s) in scene.shapes.iter().enumerate() {
         if let Some(i) = s.interface {
             if i.interior != NONE {
                 interior[i.interior as usize] = true;
-                used = true;
             }
             if i.exterior != NONE {
                 exterior_of[i.exterior as usize].get_or_insert(si);
-                used = true;
             }
         }
     }
     if scene.camera_medium != NONE {
         interior[scene.camera_medium as usize] = true;
-        used = true;
     }
     for (m, name) in scene.medium_names.iter().enumerate() {
         if let Some(si) = exterior_of[m].filter(|_| !interior[m]) {
@@ -291,7 +299,7 @@ pub fn check_usage(scene: &Scene) -> Result<bool, InputError> {
             ));
         }
     }
-    Ok(used)
+    Ok(())
 }
 
 /// Follow probe rays from the camera through every surface and check that each interface a ray
