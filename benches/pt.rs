@@ -1,6 +1,7 @@
-//! Path tracer throughput on scenes/cornell-box.json: 256×256, max depth 8 segments, no Russian
-//! roulette, 2 threads, 4 spp per iteration. Throughput is reported in samples (camera paths) per
-//! second; each pt-hero sample carries 4 wavelengths.
+//! Path tracer throughput, 256×256, no Russian roulette, 2 threads, 4 spp per iteration:
+//! scenes/cornell-box.json at max depth 8 segments, and scenes/cornell-box-medium.json (the
+//! Mitsuba 3 `volpath` comparison: homogeneous medium, max depth 16). Throughput is reported in
+//! samples (camera paths) per second; each pt-hero sample carries 4 wavelengths.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -12,10 +13,20 @@ use stokes::scene::Scene;
 const SPP: u32 = 4;
 
 fn bench_pt(c: &mut Criterion) {
-    let scene = Scene::load(Path::new("scenes/cornell-box.json")).unwrap();
+    bench_scene(c, "cornell-box", "cornell_box_256_depth8_2threads", 8);
+    bench_scene(
+        c,
+        "cornell-box-medium",
+        "cornell_box_medium_256_depth16_2threads",
+        16,
+    );
+}
+
+fn bench_scene(c: &mut Criterion, file: &str, group: &str, max_depth: u32) {
+    let scene = Scene::load(&Path::new("scenes").join(file).with_extension("json")).unwrap();
     assert_eq!((scene.camera.width, scene.camera.height), (256, 256));
     let opts = IntegratorOptions {
-        max_depth: 8,
+        max_depth,
         rr_depth: None,
         lanes: 4,
         ..Default::default()
@@ -26,7 +37,7 @@ fn bench_pt(c: &mut Criterion) {
         threads: Some(2),
         ..Default::default()
     };
-    let mut group = c.benchmark_group("cornell_box_256_depth8_2threads");
+    let mut group = c.benchmark_group(group);
     group.sample_size(10);
     group.warm_up_time(Duration::from_secs(1));
     group.measurement_time(Duration::from_secs(5));

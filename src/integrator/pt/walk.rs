@@ -1,14 +1,17 @@
 //! The random walk of the uni-directional tracers, written once for any number of wavelength
 //! lanes `L` (1: pt-mono; N: pt-hero).
 //!
-//! The first lane is the hero: it makes every directional decision. All directional pdfs are
-//! wavelength independent (diffuse lobes, no media), so every lane is an unbiased
-//! single-wavelength estimator along the same path and the HWSS balance heuristic over the lanes
-//! reduces to weighting lane j by 1 / Σ_k p(λ_k) ([`SampledWavelengths::balance_pdf`]). At a
-//! fluorescent vertex each lane samples its own incident wavelength (Jung 5.3, own random
-//! numbers); with the correction term t* of Mojzík §6.2 each lane keeps f_j / (p_dir · p_shift,j),
-//! and the path ends when any lane's shift probability is zero. Emitters hit by a scattered ray
-//! and next-event estimation are combined with MIS over directions.
+//! The first lane is the hero: it makes every directional and distance decision. Directional
+//! pdfs are wavelength independent (diffuse lobes, phase functions); without media the HWSS
+//! balance heuristic over the lanes reduces to weighting lane j by 1 / Σ_k p(λ_k)
+//! ([`SampledWavelengths::balance_pdf`]). In media the distance pdfs depend on each lane's
+//! coefficients, so the walk carries each lane's path pdf over the hero's (r_k) and weights lane
+//! j by 1 / Σ_k p(λ_k)·r_k (docs/design.md §4). At a fluorescent vertex (surface or medium) each
+//! lane samples its own incident wavelength (own random numbers); with the correction term t* of
+//! Mojzík §6.2 each lane keeps f_j / (p_dir · p_shift,j), and the path ends when any lane's shift
+//! probability is zero. Emitters hit by a scattered ray and next-event estimation are combined
+//! with MIS whose pdfs are summed over the lanes. Index-matched boundaries are crossed without a
+//! vertex. A scene without media runs the walk instantiated without medium code.
 
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
