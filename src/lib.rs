@@ -7,6 +7,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod material;
+pub mod medium;
 pub mod scene;
 pub mod spectrum;
 pub mod transport;

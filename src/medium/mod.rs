@@ -1,0 +1,3 @@
+//! Participating media: for now only the heterogeneous density grid (`grid`).
+
+pub mod grid;

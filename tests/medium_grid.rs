@@ -1,0 +1,250 @@
+//! The heterogeneous density grid (`stokes::medium::grid`): Mitsuba 3 `.vol` files and their
+//! malformed variants, and the cell-centred trilinear convention.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+use stokes::medium::grid::DensityGrid;
+
+/// A fresh path in this process's temporary folder.
+fn temp_path(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("stokes-medium-grid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// A rippled ball of density: zero outside a sphere, with sharp-ish variation inside. The box is not a cube and the resolution not a multiple of 16.
+fn rippled_ball(res: [usize; 3]) -> DensityGrid {
+    let (min, max) = (Vec3::new(-1.0, -0.5, 0.0), Vec3::new(1.0, 1.5, 3.0));
+    DensityGrid::from_fn(res, min, max, |p| {
+        let q = (p - Vec3::new(0.0, 0.5, 1.5)) / Vec3::new(1.0, 1.0, 1.5);
+        let ball = (1.0 - q.length_squared()).max(0.0);
+        ball * (1.0 + 0.8 * (7.0 * p.x).sin() * (5.0 * p.y).cos() * (3.0 * p.z).sin())
+    })
+}
+
+/// A grid whose voxel (x, y, z) holds x + 10y + 100z + 1 on the box [0,4]×[0,3]×[0,2].
+fn indexed_grid() -> DensityGrid {
+    DensityGrid::from_fn([4, 3, 2], Vec3::ZERO, Vec3::new(4.0, 3.0, 2.0), |p| {
+        let i = (p - 0.5).round();
+        i.x + 10.0 * i.y + 100.0 * i.z + 1.0
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// .vol files
+
+#[test]
+fn vol_round_trip_is_identical() {
+    let g = rippled_ball([13, 7, 5]);
+    let path = temp_path("round-trip.vol");
+    g.write_vol(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(bytes.len(), 48 + 4 * 13 * 7 * 5);
+    assert_eq!(&bytes[..4], b"VOL\x03");
+    let int = |i: usize| i32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+    let float = |i: usize| f32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+    assert_eq!(
+        [int(4), int(8), int(12), int(16), int(20)],
+        [1, 13, 7, 5, 1]
+    );
+    assert_eq!(
+        (0..6).map(|k| float(24 + 4 * k)).collect::<Vec<_>>(),
+        [-1.0, -0.5, 0.0, 1.0, 1.5, 3.0]
+    );
+    let back = DensityGrid::read_vol(&path).unwrap();
+    assert_eq!(back, g);
+    assert_eq!(back.data(), g.data());
+    std::fs::remove_file(&path).unwrap();
+}
+
+#[test]
+fn vol_data_is_x_fastest() {
+    // Written by hand: data[((z·yres + y)·xres + x)] = x + 10y + 100z + 1.
+    let mut bytes = b"VOL\x03".to_vec();
+    for n in [1i32, 4, 3, 2, 1] {
+        bytes.extend(n.to_le_bytes());
+    }
+    for v in [0.0f32, 0.0, 0.0, 4.0, 3.0, 2.0] {
+        bytes.extend(v.to_le_bytes());
+    }
+    for z in 0..2 {
+        for y in 0..3 {
+            for x in 0..4 {
+                bytes.extend(((x + 10 * y + 100 * z + 1) as f32).to_le_bytes());
+            }
+        }
+    }
+    let path = temp_path("x-fastest.vol");
+    std::fs::write(&path, &bytes).unwrap();
+    let g = DensityGrid::read_vol(&path).unwrap();
+    assert_eq!(g, indexed_grid());
+    assert_eq!(g.density(Vec3::new(1.5, 2.5, 0.5)), 22.0);
+    assert_eq!(g.max_density(), 124.0);
+    std::fs::remove_file(&path).unwrap();
+}
+
+/// The error for a valid 4×3×2 file changed by `edit`.
+fn error_for(name: &str, edit: impl FnOnce(&mut Vec<u8>)) -> String {
+    let path = temp_path(name);
+    indexed_grid().write_vol(&path).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    edit(&mut bytes);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = DensityGrid::read_vol(&path).expect_err(name);
+    std::fs::remove_file(&path).unwrap();
+    e
+}
+
+fn put_i32(b: &mut [u8], at: usize, v: i32) {
+    b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+fn put_f32(b: &mut [u8], at: usize, v: f32) {
+    b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+fn assert_mentions(e: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(e.contains(p), "error {e:?} does not mention {p:?}");
+    }
+}
+
+#[test]
+fn read_vol_rejects_a_missing_file() {
+    let e = DensityGrid::read_vol(Path::new("/nonexistent/stokes/smoke.vol")).unwrap_err();
+    assert_mentions(&e, &["cannot open"]);
+}
+
+#[test]
+fn read_vol_rejects_bad_magic_version_encoding_and_channels() {
+    let e = error_for("magic.vol", |b| b[..3].copy_from_slice(b"VOX"));
+    assert_mentions(&e, &["not a Mitsuba .vol file", "VOX"]);
+    let e = error_for("version.vol", |b| b[3] = 2);
+    assert_mentions(&e, &["version 2", "only version 3"]);
+    let e = error_for("encoding.vol", |b| put_i32(b, 4, 2));
+    assert_mentions(&e, &["encoding 2", "float32"]);
+    let e = error_for("channels.vol", |b| put_i32(b, 20, 3));
+    assert_mentions(&e, &["3 channels", "exactly 1"]);
+}
+
+#[test]
+fn read_vol_rejects_zero_negative_and_absurd_resolutions() {
+    let e = error_for("zero-res.vol", |b| put_i32(b, 12, 0));
+    assert_mentions(&e, &["4×0×2", "zero or negative"]);
+    let e = error_for("negative-res.vol", |b| put_i32(b, 16, -2));
+    assert_mentions(&e, &["4×3×-2", "zero or negative"]);
+    // 10⁵ voxels a side: rejected from the header, before any allocation.
+    let e = error_for("absurd-res.vol", |b| {
+        (8..20).step_by(4).for_each(|at| put_i32(b, at, 100_000))
+    });
+    assert_mentions(
+        &e,
+        &["100000×100000×100000", "more than the 134217728 (512³)"],
+    );
+    let e = error_for("big-res.vol", |b| {
+        (8..20).step_by(4).for_each(|at| put_i32(b, at, 513))
+    });
+    assert_mentions(&e, &["513×513×513", "more than"]);
+}
+
+#[test]
+fn read_vol_checks_the_length_against_the_header() {
+    let e = error_for("short.vol", |b| {
+        (8..20).step_by(4).for_each(|at| put_i32(b, at, 64))
+    });
+    assert_mentions(
+        &e,
+        &["header says 64×64×64 voxels (1048576 bytes of data) but the file holds 96 bytes"],
+    );
+    let e = error_for("truncated.vol", |b| b.truncate(b.len() - 3));
+    assert_mentions(
+        &e,
+        &[
+            "4×3×2 voxels (96 bytes of data)",
+            "holds 93 bytes",
+            "truncated",
+        ],
+    );
+    let e = error_for("trailing.vol", |b| b.extend([0u8; 4]));
+    assert_mentions(&e, &["holds 100 bytes", "4 trailing bytes"]);
+    let e = error_for("header.vol", |b| b.truncate(20));
+    assert_mentions(&e, &["20 bytes", "48-byte .vol header"]);
+}
+
+#[test]
+fn read_vol_rejects_bad_bounding_boxes() {
+    let e = error_for("flat-box.vol", |b| put_f32(b, 36, 0.0)); // max.x = min.x
+    assert_mentions(&e, &["bounding box", "empty or inverted along x"]);
+    let e = error_for("inverted-box.vol", |b| put_f32(b, 28, 5.0)); // min.y > max.y
+    assert_mentions(&e, &["bounding box", "empty or inverted along y"]);
+    let e = error_for("nan-box.vol", |b| put_f32(b, 44, f32::NAN));
+    assert_mentions(&e, &["bounding box", "not finite"]);
+    let e = error_for("inf-box.vol", |b| put_f32(b, 24, f32::NEG_INFINITY));
+    assert_mentions(&e, &["bounding box", "not finite"]);
+}
+
+#[test]
+fn read_vol_rejects_negative_and_non_finite_densities_by_voxel() {
+    let e = error_for("negative.vol", |b| put_f32(b, 48 + 4 * 5, -1.0));
+    assert_mentions(&e, &["voxel 5 (x 1, y 1, z 0)", "density -1", "≥ 0"]);
+    let e = error_for("nan.vol", |b| put_f32(b, 48 + 4 * 23, f32::NAN));
+    assert_mentions(&e, &["voxel 23 (x 3, y 2, z 1)", "NaN"]);
+    let e = error_for("inf.vol", |b| put_f32(b, 48, f32::INFINITY));
+    assert_mentions(&e, &["voxel 0 (x 0, y 0, z 0)", "inf"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The lookup convention
+
+#[test]
+fn density_is_cell_centred_trilinear_with_clamp_to_edge() {
+    let g = indexed_grid(); // voxel size 1: sample (x, y, z) sits at (x + ½, y + ½, z + ½)
+    let f = |x: f32, y: f32, z: f32| g.density(Vec3::new(x, y, z));
+    // Samples at voxel centres.
+    assert_eq!(f(0.5, 0.5, 0.5), 1.0);
+    assert_eq!(f(3.5, 2.5, 1.5), 124.0);
+    // Linear between centres: an affine function is reproduced exactly.
+    let mut rng = Pcg32::seed_from_u64(3);
+    for _ in 0..1000 {
+        let p = Vec3::new(0.5, 0.5, 0.5)
+            + Vec3::new(3.0, 2.0, 1.0) * Vec3::new(rng.random(), rng.random(), rng.random());
+        let want = (p.x - 0.5) + 10.0 * (p.y - 0.5) + 100.0 * (p.z - 0.5) + 1.0;
+        assert!(
+            (g.density(p) - want).abs() < 1e-4,
+            "{p}: {} vs {want}",
+            g.density(p)
+        );
+    }
+    // Clamp to edge in the outer half voxel (a vertex convention would not be flat there).
+    assert_eq!(f(0.0, 0.5, 0.5), 1.0);
+    assert_eq!(f(0.2, 0.1, 0.3), 1.0);
+    assert_eq!(f(4.0, 3.0, 2.0), 124.0);
+    assert_eq!(f(3.8, 2.5, 0.5), 24.0);
+    // Zero outside the box.
+    for p in [
+        (-0.01, 1.0, 1.0),
+        (4.01, 1.0, 1.0),
+        (1.0, 3.01, 1.0),
+        (1.0, 1.0, -1e-3),
+    ] {
+        assert_eq!(f(p.0, p.1, p.2), 0.0);
+    }
+    assert_eq!(f(f32::NAN, 1.0, 1.0), 0.0);
+}
+
+#[test]
+fn from_fn_samples_voxel_centres() {
+    let min = Vec3::new(-1.0, 2.0, 0.0);
+    let g = DensityGrid::from_fn([5, 2, 3], min, Vec3::new(1.0, 3.0, 6.0), |p| {
+        (p - min).dot(Vec3::new(1.0, 10.0, 100.0))
+    });
+    // Voxel (x, y, z) has centre min + ((x, y, z) + ½)·(0.4, 0.5, 2).
+    let centre = |x: f32, y: f32, z: f32| (Vec3::new(x, y, z) + 0.5) * Vec3::new(0.4, 0.5, 2.0);
+    let want = |c: Vec3| c.x + 10.0 * c.y + 100.0 * c.z;
+    assert!((g.data()[0] - want(centre(0.0, 0.0, 0.0))).abs() < 1e-4);
+    let i = (2 * 2 + 1) * 5 + 3; // (x 3, y 1, z 2)
+    assert!((g.data()[i] - want(centre(3.0, 1.0, 2.0))).abs() < 1e-3);
+}
