@@ -1,12 +1,12 @@
 //! The heterogeneous density grid (`stokes::medium::grid`): Mitsuba 3 `.vol` files and their
-//! malformed variants, and the cell-centred trilinear convention.
+//! malformed variants, the cell-centred trilinear convention, and the majorant DDA.
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
-use stokes::medium::grid::DensityGrid;
+use stokes::medium::grid::{DensityGrid, MAJORANT_RES, MajorantGrid};
 
 /// A fresh path in this process's temporary folder.
 fn temp_path(name: &str) -> PathBuf {
@@ -15,7 +15,8 @@ fn temp_path(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// A rippled ball of density: zero outside a sphere, with sharp-ish variation inside. The box is not a cube and the resolution not a multiple of 16.
+/// A rippled ball of density: zero outside a sphere (so some majorant cells are 0), with
+/// sharp-ish variation inside. The box is not a cube and the resolution not a multiple of 16.
 fn rippled_ball(res: [usize; 3]) -> DensityGrid {
     let (min, max) = (Vec3::new(-1.0, -0.5, 0.0), Vec3::new(1.0, 1.5, 3.0));
     DensityGrid::from_fn(res, min, max, |p| {
@@ -31,6 +32,17 @@ fn indexed_grid() -> DensityGrid {
         let i = (p - 0.5).round();
         i.x + 10.0 * i.y + 100.0 * i.z + 1.0
     })
+}
+
+/// A ray from around the box of [`rippled_ball`] towards a point near it (most hit, some
+/// miss), with a direction of random length.
+fn random_ray(rng: &mut Pcg32) -> (Vec3, Vec3) {
+    let mut v = |s: Vec3| (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * s;
+    let centre = Vec3::new(0.0, 0.5, 1.5);
+    let o = centre + v(Vec3::splat(3.0));
+    let target = centre + v(Vec3::new(1.3, 1.3, 1.8));
+    let d = (target - o) * (0.2 + 3.0 * rng.random::<f32>()); // not normalised
+    (o, d)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -247,4 +259,162 @@ fn from_fn_samples_voxel_centres() {
     assert!((g.data()[0] - want(centre(0.0, 0.0, 0.0))).abs() < 1e-4);
     let i = (2 * 2 + 1) * 5 + 3; // (x 3, y 1, z 2)
     assert!((g.data()[i] - want(centre(3.0, 1.0, 2.0))).abs() < 1e-3);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The majorant grid and its DDA
+
+/// The segments of a ray, checked to be ordered, non-empty, contiguous and to cover exactly the
+/// clipped interval.
+fn checked_segments(
+    g: &DensityGrid,
+    m: &MajorantGrid,
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Vec<(f32, f32, f32)> {
+    let segs: Vec<_> = m.segments(o, d, t_min, t_max).collect();
+    let Some((a, b)) = g.clip(o, d, t_min, t_max) else {
+        assert!(segs.is_empty(), "{o} {d}: a miss gave {segs:?}");
+        return segs;
+    };
+    assert!(!segs.is_empty(), "{o} {d}: a hit [{a}, {b}] gave nothing");
+    assert_eq!(segs[0].0, a, "{o} {d}: starts late");
+    assert_eq!(segs.last().unwrap().1, b, "{o} {d}: ends early");
+    for s in &segs {
+        assert!(s.0 < s.1, "{o} {d}: empty segment {s:?}");
+    }
+    for w in segs.windows(2) {
+        assert_eq!(w[0].1, w[1].0, "{o} {d}: gap or overlap");
+    }
+    assert!(
+        segs.len() <= 3 * m.res + 1,
+        "{o} {d}: {} segments",
+        segs.len()
+    );
+    segs
+}
+
+#[test]
+fn segments_are_contiguous_and_cover_the_clipped_interval() {
+    let g = rippled_ball([37, 23, 29]);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    let mut rng = Pcg32::seed_from_u64(1);
+    let (mut hits, mut misses) = (0, 0);
+    for i in 0..4000 {
+        let (o, d) = random_ray(&mut rng);
+        let (t_min, t_max) = match i % 4 {
+            0 => (0.0, f32::INFINITY),
+            1 => (f32::NEG_INFINITY, f32::INFINITY),
+            2 => (rng.random::<f32>(), 0.5 + rng.random::<f32>()),
+            _ => (-1.0, 2.0),
+        };
+        match checked_segments(&g, &m, o, d, t_min, t_max).len() {
+            0 => misses += 1,
+            _ => hits += 1,
+        }
+    }
+    assert!(hits > 2000 && misses > 200, "{hits} hits, {misses} misses");
+}
+
+#[test]
+fn majorants_bound_the_density_along_every_segment() {
+    for (res, mres) in [
+        ([37, 23, 29], MAJORANT_RES),
+        ([8, 8, 8], 16),
+        ([64, 5, 17], 7),
+    ] {
+        let g = rippled_ball(res);
+        let m = MajorantGrid::new(&g, mres);
+        let mut rng = Pcg32::seed_from_u64(2);
+        let mut checked = 0;
+        for _ in 0..2000 {
+            let (o, d) = random_ray(&mut rng);
+            for (t0, t1, maj) in checked_segments(&g, &m, o, d, 0.0, f32::INFINITY) {
+                assert!(maj <= g.max_density());
+                for k in 0..12 {
+                    let t = match k {
+                        0 => t0,
+                        1 => t1,
+                        _ => t0 + (t1 - t0) * rng.random::<f32>(),
+                    };
+                    let rho = g.density(o + d * t);
+                    assert!(rho <= maj, "{res:?}/{mres}: density {rho} > majorant {maj}");
+                    checked += (rho > 0.0) as usize;
+                }
+            }
+        }
+        assert!(checked > 10_000, "only {checked} non-zero samples");
+    }
+}
+
+#[test]
+fn axis_parallel_rays_and_rays_in_the_faces() {
+    let g = rippled_ball([20, 20, 20]); // box [-1,1]×[-0.5,1.5]×[0,3]
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    // Along x through the middle, with −0 and 0 components: 16 equal cells.
+    for d in [Vec3::new(2.0, 0.0, -0.0), Vec3::new(2.0, -0.0, 0.0)] {
+        let segs = checked_segments(&g, &m, Vec3::new(-3.0, 0.3, 1.1), d, 0.0, f32::INFINITY);
+        assert_eq!(segs.len(), 16);
+        for (k, s) in segs.iter().enumerate() {
+            let want = (2.0 + k as f32 / 8.0) / 2.0; // enters at x = −1, t = 1
+            assert!((s.0 - want).abs() < 1e-5, "cell {k}: {} vs {want}", s.0);
+        }
+    }
+    // Backwards along z, starting inside.
+    let segs = checked_segments(&g, &m, Vec3::new(0.1, 0.2, 1.4), -Vec3::Z, 0.0, 100.0);
+    assert!((segs.last().unwrap().1 - 1.4).abs() < 1e-6);
+    assert_eq!(segs.len(), 8); // z = 1.4 lies in cell 7 of 16 over [0, 3]
+    // In a face, on an edge and along the far face: the box is closed.
+    for o in [
+        Vec3::new(-5.0, -0.5, 1.0),
+        Vec3::new(-5.0, -0.5, 0.0),
+        Vec3::new(-5.0, 1.5, 3.0),
+    ] {
+        assert_eq!(checked_segments(&g, &m, o, Vec3::X, 0.0, 1e9).len(), 16);
+    }
+    // Just outside a face: nothing.
+    let o = Vec3::new(-5.0, 1.5001, 1.0);
+    assert!(checked_segments(&g, &m, o, Vec3::X, 0.0, 1e9).is_empty());
+    // Starting on a face and leaving: nothing.
+    assert!(checked_segments(&g, &m, Vec3::new(1.0, 0.0, 1.0), Vec3::X, 0.0, 9.0).is_empty());
+}
+
+#[test]
+fn grazing_and_diagonal_rays() {
+    let g = rippled_ball([20, 20, 20]);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    // Touching only the corner (1, 1.5, 3): a single point, so nothing.
+    let o = Vec3::new(2.0, 0.5, 3.0);
+    assert!(checked_segments(&g, &m, o, Vec3::new(-1.0, 1.0, 0.0), 0.0, 9.0).is_empty());
+    // The main diagonal passes through the cells' corners: 16 cells, the empty ones skipped.
+    let (min, max) = (g.min, g.max);
+    let segs = checked_segments(&g, &m, min - (max - min), max - min, 0.0, f32::INFINITY);
+    assert_eq!(segs.len(), 16);
+    assert_eq!((segs[0].0, segs[15].1), (1.0, 2.0));
+    // Nearly parallel to a face, just inside it.
+    let d = Vec3::new(1.0, 1e-7, 0.0);
+    checked_segments(&g, &m, Vec3::new(-2.0, 1.4999, 2.0), d, 0.0, f32::INFINITY);
+}
+
+#[test]
+fn missing_and_degenerate_rays_yield_nothing() {
+    let g = rippled_ball([10, 10, 10]);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    let inf = f32::INFINITY;
+    let o = Vec3::new(-3.0, 0.5, 1.5);
+    assert_eq!(m.segments(o, Vec3::Y, 0.0, inf).count(), 0); // beside the box
+    assert_eq!(m.segments(o, -Vec3::X, 0.0, inf).count(), 0); // pointing away
+    assert_eq!(m.segments(o, Vec3::X, 0.0, 1.5).count(), 0); // stops short
+    assert_eq!(m.segments(o, Vec3::X, 5.0, 1.0).count(), 0); // t_min > t_max
+    assert_eq!(m.segments(o, Vec3::NAN, 0.0, inf).count(), 0);
+    assert_eq!(m.segments(Vec3::NAN, Vec3::X, 0.0, inf).count(), 0);
+    assert_eq!(m.segments(o, Vec3::X, f32::NAN, inf).count(), 0);
+    assert_eq!(m.segments(o, Vec3::ZERO, 0.0, inf).count(), 0); // a point outside
+    // A point inside: one cell for all t.
+    let p = Vec3::new(0.0, 0.5, 1.5);
+    let segs: Vec<_> = m.segments(p, Vec3::ZERO, 0.0, inf).collect();
+    assert_eq!(segs.len(), 1);
+    assert_eq!((segs[0].0, segs[0].1), (0.0, inf));
 }

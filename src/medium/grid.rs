@@ -1,5 +1,6 @@
-//! Heterogeneous density on a regular grid: Mitsuba 3's binary `.vol` files (read and write)
-//! and trilinear lookup with Mitsuba 3's `gridvolume` convention.
+//! Heterogeneous density on a regular grid: Mitsuba 3's binary `.vol` files (read and write),
+//! trilinear lookup with Mitsuba 3's `gridvolume` convention, and a coarse majorant grid walked
+//! by a DDA (pbrt-v4's `MajorantGrid` and `DDAMajorantIterator`).
 //!
 //! Sample placement (Mitsuba 3 `src/volumes/grid.cpp`, whose default `filter_type` is
 //! `trilinear` and `wrap_mode` is `clamp`, evaluating through Dr.Jit's `Texture::eval_nonaccel`
@@ -22,6 +23,9 @@ use glam::Vec3;
 
 /// Most voxels a `.vol` file may hold (512³); checked before anything is allocated.
 pub const MAX_VOXELS: u64 = 512 * 512 * 512;
+
+/// Majorant cells per axis (pbrt-v4's `GridMedium` uses a 16³ `MajorantGrid`).
+pub const MAJORANT_RES: usize = 16;
 
 /// Bytes before the voxel data: "VOL", version, encoding, 3 resolutions, channels, 6 floats.
 const HEADER_BYTES: u64 = 48;
@@ -289,4 +293,162 @@ fn clip_unit_box(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)>
         t1 = t1.min(near.max(far));
     }
     (t0 < t1).then_some((t0, t1))
+}
+
+/// The largest density the trilinear lookup takes in each of `res³` cells of a grid's box
+/// (pbrt-v4 `MajorantGrid`, filled as `GridMedium` does with `SampledGrid::MaxValue`).
+#[derive(Clone, Debug)]
+pub struct MajorantGrid {
+    pub res: usize,
+    min: Vec3,
+    max: Vec3,
+    /// `data[(z·res + y)·res + x]`.
+    data: Vec<f32>,
+}
+
+/// Voxel samples that weigh on some point of majorant cell `c` of `m` along an axis of `n`
+/// samples: pbrt-v4 `SampledGrid::MaxValue`'s ⌊a·n − ½⌋ ..= ⌊b·n − ½⌋ + 1 (clamped) for the cell
+/// [a, b], widened by 1/1000 voxel so rounding at the ends of DDA segments stays covered.
+fn footprint(c: usize, m: usize, n: usize) -> (usize, usize) {
+    let (a, b) = (c as f64 / m as f64, (c + 1) as f64 / m as f64);
+    let lo = (a * n as f64 - 0.5 - 1e-3).floor();
+    let hi = (b * n as f64 - 0.5 + 1e-3).floor() + 1.0;
+    (lo.max(0.0) as usize, hi.min(n as f64 - 1.0) as usize)
+}
+
+impl MajorantGrid {
+    /// Majorants of `grid` on `res³` cells ([`MAJORANT_RES`] is the usual `res`).
+    pub fn new(grid: &DensityGrid, res: usize) -> Self {
+        assert!(res > 0, "MajorantGrid: zero resolution");
+        let spans: [Vec<(usize, usize)>; 3] =
+            std::array::from_fn(|a| (0..res).map(|c| footprint(c, res, grid.res[a])).collect());
+        let mut data = Vec::with_capacity(res * res * res);
+        for &(z0, z1) in &spans[2] {
+            for &(y0, y1) in &spans[1] {
+                for &(x0, x1) in &spans[0] {
+                    let mut m = 0.0f32;
+                    for z in z0..=z1 {
+                        for y in y0..=y1 {
+                            let row = (z * grid.res[1] + y) * grid.res[0];
+                            m = grid.data[row + x0..=row + x1]
+                                .iter()
+                                .fold(m, |m, &v| m.max(v));
+                        }
+                    }
+                    data.push(m);
+                }
+            }
+        }
+        Self {
+            res,
+            min: grid.min,
+            max: grid.max,
+            data,
+        }
+    }
+
+    /// The majorant of cell `[x, y, z]`.
+    pub fn cell(&self, [x, y, z]: [usize; 3]) -> f32 {
+        self.data[(z * self.res + y) * self.res + x]
+    }
+
+    /// The cells `o + t·d` crosses for t in `[t_min, t_max]`, as `(t0, t1, majorant)` in order
+    /// along the ray: contiguous, non-empty, and covering exactly the part of the interval
+    /// inside the box (nothing if the ray misses). `d` need not be normalised.
+    pub fn segments(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Segments<'_> {
+        let (o, d) = to_unit(self.min, self.max, o, d);
+        let mut s = Segments {
+            grid: self,
+            o,
+            d,
+            t: 0.0,
+            t_end: 0.0,
+            cell: [0; 3],
+            step: [0; 3],
+            next: [f32::INFINITY; 3],
+            steps_left: 3 * self.res + 4,
+        };
+        let Some((t0, t1)) = clip_unit_box(o, d, t_min, t_max) else {
+            return s; // t = t_end: empty
+        };
+        (s.t, s.t_end) = (t0, t1);
+        // pbrt-v4 `DDAMajorantIterator`: the cell of the entry point, then per axis the t of the
+        // next cell boundary (here computed from the origin each time, not accumulated).
+        let p = o + d * t0;
+        let last = self.res as i64 - 1;
+        for a in 0..3 {
+            s.cell[a] = ((p[a] * self.res as f32).floor() as i64).clamp(0, last);
+            s.step[a] = if d[a] > 0.0 {
+                1
+            } else if d[a] < 0.0 {
+                -1
+            } else {
+                0 // d = 0 or −0: never crosses a boundary on this axis
+            };
+            s.next[a] = s.crossing(a);
+        }
+        s
+    }
+}
+
+/// The DDA walk of [`MajorantGrid::segments`].
+#[derive(Clone, Debug)]
+pub struct Segments<'a> {
+    grid: &'a MajorantGrid,
+    /// The ray in the box's unit coordinates.
+    o: Vec3,
+    d: Vec3,
+    /// Start of the next segment and end of the clipped interval.
+    t: f32,
+    t_end: f32,
+    cell: [i64; 3],
+    step: [i64; 3],
+    /// The t at which the ray leaves the current cell along each axis (∞ if never).
+    next: [f32; 3],
+    /// Bound on the walk: each axis moves at most `res` times.
+    steps_left: usize,
+}
+
+impl Segments<'_> {
+    /// The t of the current cell's exit plane along axis `a` (∞ for a parallel ray).
+    fn crossing(&self, a: usize) -> f32 {
+        let plane = match self.step[a] {
+            1 => self.cell[a] + 1,
+            -1 => self.cell[a],
+            _ => return f32::INFINITY,
+        };
+        (plane as f32 / self.grid.res as f32 - self.o[a]) / self.d[a]
+    }
+}
+
+impl Iterator for Segments<'_> {
+    type Item = (f32, f32, f32);
+
+    fn next(&mut self) -> Option<(f32, f32, f32)> {
+        while self.t < self.t_end && self.steps_left > 0 {
+            self.steps_left -= 1;
+            let a = (0..3)
+                .min_by(|&i, &j| self.next[i].total_cmp(&self.next[j]))
+                .unwrap_or(0);
+            let t0 = self.t;
+            let majorant = self.grid.cell(self.cell.map(|c| c as usize));
+            if self.next[a] >= self.t_end || self.steps_left == 0 {
+                self.t = self.t_end; // the last cell runs to the end of the interval
+            } else {
+                self.t = self.next[a].max(t0);
+                self.cell[a] += self.step[a];
+                if (0..self.grid.res as i64).contains(&self.cell[a]) {
+                    self.next[a] = self.crossing(a);
+                } else {
+                    // Rounding left the grid before t_end: stay in the edge cell to the end.
+                    self.cell[a] -= self.step[a];
+                    self.next[a] = f32::INFINITY;
+                }
+            }
+            if self.t > t0 {
+                return Some((t0, self.t, majorant));
+            }
+        }
+        None
+    }
 }
