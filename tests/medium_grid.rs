@@ -1,12 +1,15 @@
 //! The heterogeneous density grid (`stokes::medium::grid`): Mitsuba 3 `.vol` files and their
-//! malformed variants, the cell-centred trilinear convention, and the majorant DDA.
+//! malformed variants, the cell-centred trilinear convention, the majorant DDA, and
+//! ratio-tracking transmittance against a ray-marched reference.
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
-use stokes::medium::grid::{DensityGrid, MAJORANT_RES, MajorantGrid};
+use stokes::medium::grid::{
+    DensityGrid, MAJORANT_RES, MajorantGrid, ratio_tracking, ray_marched_transmittance,
+};
 
 /// A fresh path in this process's temporary folder.
 fn temp_path(name: &str) -> PathBuf {
@@ -417,4 +420,124 @@ fn missing_and_degenerate_rays_yield_nothing() {
     let segs: Vec<_> = m.segments(p, Vec3::ZERO, 0.0, inf).collect();
     assert_eq!(segs.len(), 1);
     assert_eq!((segs[0].0, segs[0].1), (0.0, inf));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Transmittance
+
+/// Mean and standard error of `n` ratio-tracking estimates.
+fn ratio_tracking_mean(
+    g: &DensityGrid,
+    m: &MajorantGrid,
+    ray: (Vec3, Vec3, f32, f32),
+    sigma_t: f32,
+    n: usize,
+    rng: &mut Pcg32,
+) -> (f64, f64) {
+    let (o, d, t_min, t_max) = ray;
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let t = ratio_tracking(g, m, o, d, t_min, t_max, sigma_t, || rng.random()) as f64;
+        assert!((0.0..=1.0).contains(&t), "estimate {t}");
+        sum += t;
+        sum2 += t * t;
+    }
+    let mean = sum / n as f64;
+    let var = (sum2 / n as f64 - mean * mean).max(0.0) * n as f64 / (n - 1) as f64;
+    (mean, (var / n as f64).sqrt())
+}
+
+#[test]
+fn ratio_tracking_matches_ray_marching() {
+    let g = rippled_ball([24, 20, 28]);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    let sigma_t = 2.0;
+    let inf = f32::INFINITY;
+    let rays = [
+        (Vec3::new(-3.0, 0.5, 1.5), Vec3::X, 0.0, inf),
+        (
+            Vec3::new(-3.0, 0.4, 1.2),
+            Vec3::new(2.0, 0.1, 0.3),
+            0.0,
+            inf,
+        ),
+        (
+            Vec3::new(0.1, 0.6, 1.5),
+            Vec3::new(0.0, 0.0, -0.5),
+            0.0,
+            inf,
+        ), // starts inside
+        (
+            Vec3::new(0.3, -2.0, 0.9),
+            Vec3::new(-0.1, 1.0, 0.4),
+            1.0,
+            3.0,
+        ), // clipped
+        (
+            Vec3::new(-1.0, -0.5, 0.0),
+            Vec3::new(2.0, 2.0, 3.0),
+            0.0,
+            1.0,
+        ), // diagonal
+        (Vec3::new(0.0, 0.5, -4.0), Vec3::Z * 3.0, 0.0, inf), // through the centre
+    ];
+    let mut rng = Pcg32::seed_from_u64(2014);
+    let mut attenuated = 0;
+    for (i, &(o, d, t_min, t_max)) in rays.iter().enumerate() {
+        let want = ray_marched_transmittance(&g, o, d, t_min, t_max, sigma_t, 200_000) as f64;
+        let (mean, se) =
+            ratio_tracking_mean(&g, &m, (o, d, t_min, t_max), sigma_t, 20_000, &mut rng);
+        println!("ray {i}: ratio tracking {mean:.5} ± {se:.5}, ray marching {want:.5}");
+        assert!(
+            (mean - want).abs() <= 3.0 * se,
+            "ray {i}: {mean} ± {se} vs {want}"
+        );
+        attenuated += (want < 0.9 && se > 0.0) as usize;
+    }
+    assert!(attenuated >= 4, "the rays barely cross the medium");
+}
+
+#[test]
+fn ratio_tracking_of_a_constant_grid_is_beer_lambert() {
+    let g = DensityGrid::from_fn([5, 5, 5], Vec3::ZERO, Vec3::ONE, |_| 0.7);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    let (o, d) = (Vec3::new(-1.0, 0.5, 0.5), Vec3::new(0.5, 0.0, 0.0)); // |d| = 0.5
+    let want = (-1.5f64 * 0.7 * 1.0).exp(); // length 1 inside the box
+    let marched = ray_marched_transmittance(&g, o, d, 0.0, f32::INFINITY, 1.5, 1000) as f64;
+    assert!((marched - want).abs() < 1e-6, "{marched} vs {want}");
+    let mut rng = Pcg32::seed_from_u64(7);
+    let (mean, se) = ratio_tracking_mean(&g, &m, (o, d, 0.0, f32::INFINITY), 1.5, 20_000, &mut rng);
+    assert!((mean - want).abs() <= 3.0 * se, "{mean} ± {se} vs {want}");
+}
+
+#[test]
+fn transmittance_is_one_where_there_is_nothing() {
+    let g = rippled_ball([16, 16, 16]);
+    let m = MajorantGrid::new(&g, MAJORANT_RES);
+    let mut calls = 0;
+    let mut rng = || {
+        calls += 1;
+        0.5
+    };
+    let inf = f32::INFINITY;
+    // Missing the box, and crossing only its empty corner.
+    let t = ratio_tracking(
+        &g,
+        &m,
+        Vec3::new(-3.0, 3.0, 0.0),
+        Vec3::X,
+        0.0,
+        inf,
+        2.0,
+        &mut rng,
+    );
+    assert_eq!(t, 1.0);
+    let corner = Vec3::new(-3.0, -0.45, 0.05);
+    let t = ratio_tracking(&g, &m, corner, Vec3::X, 0.0, inf, 2.0, &mut rng);
+    assert_eq!(t, 1.0);
+    assert_eq!(calls, 0, "cells with majorant 0 are skipped");
+    assert_eq!(
+        ray_marched_transmittance(&g, corner, Vec3::X, 0.0, inf, 2.0, 100),
+        1.0
+    );
 }
