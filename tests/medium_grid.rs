@@ -541,3 +541,41 @@ fn transmittance_is_one_where_there_is_nothing() {
         1.0
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// The committed smoke grid
+
+#[test]
+fn committed_smoke_grid_reads() {
+    let path: PathBuf = [env!("CARGO_MANIFEST_DIR"), "scenes", "media", "smoke.vol"]
+        .iter()
+        .collect();
+    let size = std::fs::metadata(&path).unwrap().len();
+    assert!(size <= 2 << 20, "{size} bytes");
+    let g = DensityGrid::read_vol(&path).unwrap();
+    // Inside the Cornell box's interior [-1, 1]³, standing on its floor.
+    assert!(g.min.cmpge(Vec3::splat(-1.0)).all() && g.max.cmple(Vec3::splat(1.0)).all());
+    assert_eq!(g.min.y, -1.0);
+    assert_eq!(g.max_density(), 1.0);
+    let mean = g.data().iter().map(|&v| v as f64).sum::<f64>() / g.data().len() as f64;
+    println!(
+        "smoke.vol: {size} bytes, {:?} voxels, box {} .. {}, max {}, mean {mean:.4}",
+        g.res,
+        g.min,
+        g.max,
+        g.max_density()
+    );
+    assert!(mean > 0.01 && mean < 0.5, "mean {mean}");
+    // Zero on the sides and the top, so clamp-to-edge (Mitsuba) and zero-outside agree there.
+    let [nx, ny, nz] = g.res;
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let side = x == 0 || x == nx - 1 || z == 0 || z == nz - 1 || y == ny - 1;
+                if side {
+                    assert_eq!(g.data()[(z * ny + y) * nx + x], 0.0, "voxel {x} {y} {z}");
+                }
+            }
+        }
+    }
+}
