@@ -2,9 +2,9 @@
 //! import each other in a cycle, the bidirectional integrators do not reach into the
 //! uni-directional ones, and no function outside tests runs past about 120 lines.
 //!
-//! Layers, lowest first: `spectrum`, `geometry` < `film`, `material` < `scene` < `error`,
-//! `transport` < `integrator` < `experiment` < `cli` < `main`. A new top-level module must be
-//! given a layer here.
+//! Layers, lowest first: `spectrum`, `geometry` < `film`, `material`, `medium` < `scene` <
+//! `error`, `transport` < `integrator` < `experiment` < `cli` < `main`. A new top-level module
+//! must be given a layer here.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -6,6 +6,7 @@
 //! - [`grid`]: density grids read from Mitsuba `.vol` files, the majorant grid and its DDA.
 
 pub mod coefficients;
+pub mod grid;
 pub mod tracking;
 
 pub use coefficients::{Coefficients, CollisionCoefficients, Fluorophore, InShift};
