@@ -228,3 +228,40 @@ fn mono_and_hero_agree_in_the_cornell_box_medium() {
     let mono = quadrants(&scene, IntegratorKind::PtMono, &opts, 128, 6);
     assert_agree("cornell-box-medium pt-hero vs pt-mono", hero, mono);
 }
+
+/// Grid media (delta tracking, ratio tracking for NEE): pt-mono and pt-hero agree on the
+/// fluorescent smoke of Mojzík Fig. 15, and so do the majorants of exponential and max tracking.
+#[test]
+fn grid_media_agree() {
+    let mut scene = load("media-smoke.json");
+    scene.camera.width = 24;
+    scene.camera.height = 24;
+    let opts = |tracking| IntegratorOptions {
+        max_depth: 10,
+        tracking,
+        ..Default::default()
+    };
+    let hero = quadrants(
+        &scene,
+        IntegratorKind::PtHero,
+        &opts(Tracking::Aware),
+        128,
+        6,
+    );
+    let mono = quadrants(
+        &scene,
+        IntegratorKind::PtMono,
+        &opts(Tracking::Aware),
+        256,
+        6,
+    );
+    assert_agree("media-smoke pt-hero vs pt-mono", hero, mono);
+    let exp = quadrants(
+        &scene,
+        IntegratorKind::PtHero,
+        &opts(Tracking::Exponential),
+        128,
+        6,
+    );
+    assert_agree("media-smoke pt-hero max vs exponential majorant", hero, exp);
+}

@@ -26,4 +26,25 @@ pub struct Medium {
 pub enum Density {
     /// Density 1 everywhere inside the medium's boundary.
     Homogeneous,
+    /// A density grid, its majorant grid and a scale (Mitsuba's `gridvolume` times `scale`).
+    Grid(Box<GridDensity>),
+}
+
+/// A heterogeneous density: `scale` × the trilinear grid, 0 outside its bounding box.
+#[derive(Clone, Debug)]
+pub struct GridDensity {
+    pub grid: grid::DensityGrid,
+    pub majorant: grid::MajorantGrid,
+    pub scale: f32,
+}
+
+impl GridDensity {
+    pub fn new(grid: grid::DensityGrid, scale: f32) -> Self {
+        let majorant = grid::MajorantGrid::new(&grid, grid::MAJORANT_RES);
+        GridDensity {
+            grid,
+            majorant,
+            scale,
+        }
+    }
 }

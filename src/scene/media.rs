@@ -11,7 +11,8 @@ use super::format::{FluorescenceDesc, MediumDesc, PhaseDesc, ShapeDesc};
 use super::spectra::SpectrumContext;
 use super::{InputError, NONE, Scene};
 use crate::geometry::ray::spawn_ray;
-use crate::medium::{Coefficients, Density, Fluorophore, Medium};
+use crate::medium::grid::DensityGrid;
+use crate::medium::{Coefficients, Density, Fluorophore, GridDensity, Medium};
 use crate::spectrum::Spectrum;
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -151,12 +152,15 @@ fn grid_density(
             format!("must be a finite non-negative number, got {scale}"),
         ));
     }
-    let _ = file;
-    Err(InputError::new(
-        ctx.file,
-        format!("{base}.file"),
-        "grid media are not available in this build".to_string(),
-    ))
+    let full = ctx.dir.join(file);
+    let grid = DensityGrid::read_vol(&full).map_err(|m| {
+        InputError::new(
+            ctx.file,
+            format!("{base}.file"),
+            format!("grid volume '{}': {m}", full.display()),
+        )
+    })?;
+    Ok(Density::Grid(Box::new(GridDensity::new(grid, scale))))
 }
 
 fn fluorophore(

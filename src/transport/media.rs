@@ -9,7 +9,7 @@
 
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray_to;
-use crate::medium::{Density, Flight, FreeFlight, Medium, Tracking};
+use crate::medium::{Density, Flight, FreeFlight, GridDensity, Medium, Tracking};
 use crate::scene::{NONE, Scene};
 use crate::spectrum::Lanes;
 use glam::Vec3;
@@ -41,6 +41,79 @@ pub fn travel<L: Lanes>(
 ) -> Travel<L> {
     match &medium.density {
         Density::Homogeneous => travel_homogeneous(medium, t_max, lambda, n, mode, u()),
+        Density::Grid(g) => travel_grid(medium, g, ray, t_max, lambda, n, mode, u),
+    }
+}
+
+/// The majorant coefficient per unit density of each lane: σ̂t for exponential tracking, the
+/// max(σ̂t, σ̂s) hot-fix otherwise (Mojzík §7.5; the aware density has no grid form).
+#[inline(always)]
+fn majorant_coefficient(mode: Tracking, hat_t: f32, hat_s: f32) -> f32 {
+    match mode {
+        Tracking::Exponential => hat_t,
+        Tracking::Max | Tracking::Aware => hat_t.max(hat_s),
+    }
+}
+
+/// Grid medium: delta tracking against a majorant from the majorant grid's DDA cells, common to
+/// all lanes (the largest lane's), in the null-collision form: at a tentative collision with
+/// density ρ each lane has the collision coefficient s_k = σ̂s,k·ρ and the null coefficient
+/// n_k = μ − σ̂t,k·ρ ≥ 0; the hero collides with probability s_h / (s_h + n_h). Lane j's
+/// factor is its coefficient over the hero's probability of the event (the exponentials cancel
+/// because the majorant is common), and the ratios are the lanes' event probabilities over the
+/// hero's (Woodcock tracking; Novák et al. 2014 for the null-collision form).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn travel_grid<L: Lanes>(
+    medium: &Medium,
+    g: &GridDensity,
+    ray: &Ray,
+    t_max: f32,
+    lambda: L,
+    n: usize,
+    mode: Tracking,
+    u: &mut impl FnMut() -> f32,
+) -> Travel<L> {
+    let c = medium.coefficients.at(n, lambda);
+    let c_max = (0..n)
+        .map(|j| majorant_coefficient(mode, c.hat_t.lane(j), c.hat_s.lane(j)))
+        .fold(0.0f32, f32::max);
+    let one = L::splat_n(n, 1.0);
+    let (mut factor, mut ratio) = (one, one);
+    for (t0, t1, max_density) in g.majorant.segments(ray.o, ray.d, 0.0, t_max) {
+        let mu = max_density * g.scale * c_max;
+        if !(mu > 0.0) {
+            continue;
+        }
+        let mut t = t0;
+        loop {
+            t -= (1.0 - u()).ln() / mu;
+            if t >= t1 {
+                break;
+            }
+            let rho = g.grid.density(ray.at(t)) * g.scale;
+            let s = c.hat_s * rho;
+            let null = L::from_fn(n, |j| (mu - c.hat_t.lane(j) * rho).max(0.0));
+            let p_collide = L::from_fn(n, |j| {
+                let total = s.lane(j) + null.lane(j);
+                if total > 0.0 { s.lane(j) / total } else { 0.0 }
+            });
+            let p_h = p_collide.lane(0);
+            if u() < p_h {
+                factor *= rho / (mu * p_h);
+                ratio *= p_collide * (1.0 / p_h);
+                return Travel::Collision { t, factor, ratio };
+            }
+            let q_h = 1.0 - p_h;
+            factor *= null * (1.0 / (mu * q_h));
+            ratio *= L::from_fn(n, |j| (1.0 - p_collide.lane(j)) / q_h);
+        }
+    }
+    Travel::Pass {
+        factor,
+        ratio,
+        // Not analytic here: the NEE weights take 1 (any fixed choice keeps them summing to 1).
+        pass: one,
     }
 }
 
@@ -113,8 +186,20 @@ fn transmittance(sigma: f32, d: f32) -> f32 {
 /// The transmittance of one stretch of `medium` of length `len` along `ray` at every lane, and
 /// the lanes' pass probabilities under free-flight sampling (for MIS).
 #[inline]
-fn stretch<L: Lanes>(medium: &Medium, len: f32, lambda: L, n: usize, mode: Tracking) -> (L, L) {
+fn stretch<L: Lanes>(
+    medium: &Medium,
+    ray: &Ray,
+    len: f32,
+    lambda: L,
+    n: usize,
+    mode: Tracking,
+    u: &mut impl FnMut() -> f32,
+) -> (L, L) {
     match &medium.density {
+        Density::Grid(g) => (
+            ratio_tracking(medium, g, ray, len, lambda, n, u),
+            L::splat_n(n, 1.0),
+        ),
         Density::Homogeneous => {
             if let Some((hat_t, hat_s)) = medium.coefficients.grey {
                 let pass = FreeFlight::new(mode, hat_t, hat_s).pdf_pass(len);
@@ -134,6 +219,42 @@ fn stretch<L: Lanes>(medium: &Medium, len: f32, lambda: L, n: usize, mode: Track
     }
 }
 
+/// Ratio tracking through a grid for every lane against a common majorant (the largest lane's
+/// σ̂t): each tentative collision multiplies lane j by 1 − σ̂t,j·ρ/μ (Novák et al. 2014).
+#[inline]
+fn ratio_tracking<L: Lanes>(
+    medium: &Medium,
+    g: &GridDensity,
+    ray: &Ray,
+    len: f32,
+    lambda: L,
+    n: usize,
+    u: &mut impl FnMut() -> f32,
+) -> L {
+    let c = medium.coefficients.at(n, lambda);
+    let c_max = (0..n).map(|j| c.hat_t.lane(j)).fold(0.0f32, f32::max);
+    let mut tr = L::splat_n(n, 1.0);
+    for (t0, t1, max_density) in g.majorant.segments(ray.o, ray.d, 0.0, len) {
+        let mu = max_density * g.scale * c_max;
+        if !(mu > 0.0) {
+            continue;
+        }
+        let mut t = t0;
+        loop {
+            t -= (1.0 - u()).ln() / mu;
+            if t >= t1 {
+                break;
+            }
+            let rho = g.grid.density(ray.at(t)) * g.scale;
+            tr *= L::from_fn(n, |j| 1.0 - c.hat_t.lane(j) * rho / mu);
+            if !(tr.max_lane() > 0.0) {
+                return tr;
+            }
+        }
+    }
+    tr
+}
+
 /// Transmittance from `a` (in medium `medium`) to `b` at every lane, through index-matched
 /// boundaries; `None` when a surface blocks the segment. Also returns the product of the
 /// lanes' pass probabilities (the pdf of reaching `b` by free-flight sampling, per lane, for the
@@ -149,6 +270,7 @@ pub fn transmittance_lanes<L: Lanes>(
     n: usize,
     mode: Tracking,
     rays: &mut u64,
+    u: &mut impl FnMut() -> f32,
 ) -> Option<(L, L)> {
     let mut tr = L::splat_n(n, 1.0);
     let mut pass = L::splat_n(n, 1.0);
@@ -159,7 +281,7 @@ pub fn transmittance_lanes<L: Lanes>(
         let hit = scene.intersect(&ray, tmax);
         let len = hit.map_or(tmax, |h| h.t);
         if let Some(m) = scene.medium(medium) {
-            let (t, q) = stretch(m, len, lambda, n, mode);
+            let (t, q) = stretch(m, &ray, len, lambda, n, mode, u);
             tr *= t;
             pass *= q;
         }
@@ -180,3 +302,76 @@ pub const MAX_CROSSINGS: usize = 256;
 
 /// A point inside a medium has no surface to offset from.
 pub const NO_NORMAL: Vec3 = Vec3::ZERO;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::medium::grid::{DensityGrid, ray_marched_transmittance};
+    use crate::medium::{Coefficients, Density};
+    use crate::spectrum::Spectrum;
+    use glam::Vec4;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg32;
+
+    /// A grid medium whose σ̂t differs per lane; ratio tracking of all four lanes against the
+    /// common majorant matches a dense ray-marched reference per lane within 3 standard errors.
+    #[test]
+    fn lane_ratio_tracking_matches_ray_marching() {
+        let grid = DensityGrid::from_fn(
+            [12, 10, 8],
+            Vec3::new(-1.0, -1.0, -1.0),
+            Vec3::new(1.0, 0.8, 1.2),
+            |p| (1.0 + (3.0 * p.x).sin() * (2.0 * p.y + p.z).cos()) * 0.5,
+        );
+        let medium = Medium {
+            coefficients: Coefficients::new(
+                Spectrum::Tabulated {
+                    xs: vec![400.0, 700.0],
+                    ys: vec![0.2, 2.0],
+                },
+                Spectrum::Constant(0.5),
+                None,
+            ),
+            g: 0.0,
+            density: Density::Grid(Box::new(GridDensity::new(grid.clone(), 1.5))),
+        };
+        let Density::Grid(g) = &medium.density else {
+            unreachable!()
+        };
+        let lambda = Vec4::new(410.0, 500.0, 600.0, 690.0);
+        let mut rng = Pcg32::seed_from_u64(3);
+        for (o, d) in [
+            (Vec3::new(-2.0, 0.1, 0.0), Vec3::new(1.0, 0.05, 0.1)),
+            (Vec3::new(0.3, -1.5, -0.2), Vec3::new(-0.2, 1.0, 0.3)),
+        ] {
+            let ray = Ray::new(o, d.normalize());
+            let len = 4.0;
+            const N: usize = 20_000;
+            let (mut sum, mut sq) = (Vec4::ZERO, Vec4::ZERO);
+            for _ in 0..N {
+                let mut u = || rng.random::<f32>();
+                let t: Vec4 = ratio_tracking(&medium, g, &ray, len, lambda, 4, &mut u);
+                sum += t;
+                sq += t * t;
+            }
+            let mean = sum / N as f32;
+            let se = ((sq / N as f32 - mean * mean) / N as f32)
+                .max(Vec4::ZERO)
+                .sqrt();
+            let c = medium.coefficients.at(4, lambda);
+            for j in 0..4 {
+                let sigma = c.hat_t.lane(j) * 1.5;
+                let want = ray_marched_transmittance(&grid, ray.o, ray.d, 0.0, len, sigma, 20_000);
+                let (m, e) = (mean.lane(j), se.lane(j));
+                assert!(
+                    (m - want).abs() < 3.0 * e + 1e-4,
+                    "lane {j}: {m} ± {e} vs {want}"
+                );
+                assert!(
+                    want > 0.01 && want < 0.99,
+                    "lane {j}: a trivial case ({want})"
+                );
+            }
+        }
+    }
+}

@@ -385,9 +385,18 @@ impl Walk {
             // The shadow ray leaves into the medium on the light's side of a surface.
             let medium = iface.map_or(s.medium, |i| i.towards(a.n, ls.wi));
             let rays = &mut sink.stats.rays;
-            let Some((tr, pass)) =
-                transmittance_lanes(scene, a, b, medium, s.lambda, n, self.tracking, rays)
-            else {
+            let mut u = || sampler.next();
+            let Some((tr, pass)) = transmittance_lanes(
+                scene,
+                a,
+                b,
+                medium,
+                s.lambda,
+                n,
+                self.tracking,
+                rays,
+                &mut u,
+            ) else {
                 return L::ZERO;
             };
             let light = ls.pdf * lanes.pdf.dot(s.ratio);
