@@ -189,3 +189,63 @@ fn bidirectional_integrators_refuse_media() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn bad_grid_files_name_the_field() {
+    let grid = |file: &str| {
+        scene(&[]).replace(
+            r#""fog": { "type": "homogeneous","#,
+            &format!(r#""fog": {{ "type": "grid", "file": "{file}","#),
+        )
+    };
+    let d = tmpdir("grids");
+    // A 2×2×2 grid: header, then 8 floats.
+    let mut good = b"VOL\x03".to_vec();
+    for v in [1i32, 2, 2, 2, 1] {
+        good.extend(v.to_le_bytes());
+    }
+    for v in [-0.5f32, -0.5, -0.5, 0.5, 0.5, 0.5] {
+        good.extend(v.to_le_bytes());
+    }
+    for _ in 0..8 {
+        good.extend(0.5f32.to_le_bytes());
+    }
+    std::fs::write(d.join("good.vol"), &good).unwrap();
+    std::fs::write(d.join("short.vol"), &good[..good.len() - 6]).unwrap();
+    let mut big = good.clone();
+    big[8..12].copy_from_slice(&3i32.to_le_bytes());
+    std::fs::write(d.join("size.vol"), &big).unwrap();
+    let mut neg = good.clone();
+    let last = neg.len() - 4;
+    neg[last..].copy_from_slice(&(-1.0f32).to_le_bytes());
+    std::fs::write(d.join("neg.vol"), &neg).unwrap();
+    let run_in = |file: &str| {
+        let path = d.join("scene.json");
+        std::fs::write(&path, grid(file)).unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
+            .args(["render", path.to_str().unwrap(), "--spp", "1"])
+            .args(["-o", d.join("out.exr").to_str().unwrap()])
+            .output()
+            .unwrap();
+        (
+            out.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let (code, err) = run_in("good.vol");
+    assert_eq!(code, 0, "{err}");
+    for (file, words) in [
+        ("missing.vol", "missing.vol"),
+        ("short.vol", "truncated"),
+        ("size.vol", "3×2×2"),
+        ("neg.vol", "density -1"),
+    ] {
+        let (code, err) = run_in(file);
+        assert_eq!(code, 2, "{file}: {err}");
+        assert!(
+            err.contains("media.fog.file") && err.contains(words),
+            "{file}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
