@@ -217,6 +217,29 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
             }
         );
     }
+    for (n, m) in s.medium_names.iter().zip(&s.media) {
+        use crate::medium::Density;
+        let density = match &m.density {
+            Density::Homogeneous => "homogeneous".to_string(),
+            Density::Grid(g) => format!(
+                "grid {}×{}×{}, density scale {}, max density {}",
+                g.grid.res[0],
+                g.grid.res[1],
+                g.grid.res[2],
+                g.scale,
+                g.grid.max_density() * g.scale
+            ),
+        };
+        let fl = if m.coefficients.is_fluorescent() {
+            "fluorescent"
+        } else {
+            "non-fluorescent"
+        };
+        println!("medium {n}: {density}, {fl}, phase g = {}", m.g);
+    }
+    if s.camera_medium != crate::scene::NONE {
+        println!("camera in medium {}", s.medium_names[s.camera_medium as usize]);
+    }
     for l in &s.lights {
         println!(
             "light {}: area {:.4}, power {:.4}{}",

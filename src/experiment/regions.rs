@@ -51,7 +51,7 @@ pub fn region_ids(scene: &Scene, by: RegionBy) -> (Vec<String>, Vec<Option<u16>>
     for y in 0..h {
         for x in 0..w {
             let ray = scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5);
-            let id = scene.intersect(&ray, f32::INFINITY).map(|hit| {
+            let id = scene.first_visible(&ray).map(|hit| {
                 let p = scene.prims[hit.prim as usize];
                 match by {
                     RegionBy::Material => p.material as u16,

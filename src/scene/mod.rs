@@ -110,6 +110,19 @@ impl Scene {
         })
     }
 
+    /// The first surface along `ray` that is not an index-matched boundary (those are invisible).
+    pub fn first_visible(&self, ray: &Ray) -> Option<Interaction> {
+        let mut ray = *ray;
+        for _ in 0..256 {
+            let it = self.intersect(&ray, f32::INFINITY)?;
+            if it.material != NONE || it.light != NONE {
+                return Some(it);
+            }
+            ray = crate::geometry::ray::spawn_ray(it.p, it.n, ray.d);
+        }
+        None
+    }
+
     /// Whether anything blocks the segment of length `t_max`.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
