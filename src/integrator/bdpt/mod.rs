@@ -57,6 +57,9 @@ impl Bdpt {
             ResetMode::Forward => "bdpt-forward",
             ResetMode::Backward => "bdpt-backward",
         };
+        if scene.has_media {
+            return Err(super::media_not_supported(name));
+        }
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "{name} refuses this scene: it has {f}; the wavelength reset needs directional \

@@ -121,6 +121,9 @@ pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
 
 impl BdptAllbins {
     pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
+        if scene.has_media {
+            return Err(crate::integrator::media_not_supported("bdpt-allbins"));
+        }
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "bdpt-allbins needs wavelength-independent directional sampling; the scene has {f}"
