@@ -238,7 +238,10 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         println!("medium {n}: {density}, {fl}, phase g = {}", m.g);
     }
     if s.camera_medium != crate::scene::NONE {
-        println!("camera in medium {}", s.medium_names[s.camera_medium as usize]);
+        println!(
+            "camera in medium {}",
+            s.medium_names[s.camera_medium as usize]
+        );
     }
     for l in &s.lights {
         println!(

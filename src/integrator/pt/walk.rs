@@ -163,6 +163,7 @@ impl Walk {
             depth += 1;
             let wo = -ray.d;
             let segments = depth as usize;
+            s.segments = segments;
             if it.light != NONE {
                 let c = self.emitter_hit::<L, MEDIA>(scene, &it, wo, &s, lanes, depth);
                 if c.max_lane() > 0.0 {
@@ -173,35 +174,10 @@ impl Walk {
             if it.material == NONE || depth >= self.max_depth {
                 break;
             }
-            let m: &Material = &scene.materials[it.material as usize];
-            match self.scatter_wavelengths(scene, m, s.lambda, sampler) {
-                Some((new_lambda, w)) => {
-                    s.beta *= w;
-                    s.lambda = new_lambda;
-                }
+            match self.surface_vertex::<L, MEDIA>(scene, &it, wo, &mut s, lanes, sampler, sink) {
+                Some(r) => ray = r,
                 None => break,
             }
-            if !positive(s.beta.max_lane()) {
-                break;
-            }
-            s.vertex(it.p, n);
-            let lobe = Scattering::Diffuse { n: it.n };
-            let a = Endpoint { p: it.p, n: it.n };
-            let iface = if MEDIA { scene.interface(&it) } else { None };
-            let c =
-                self.next_event::<L, MEDIA>(scene, a, iface, wo, lobe, &s, lanes, sampler, sink);
-            if c.max_lane() > 0.0 {
-                s.radiance += c;
-                sink.stats.contribution(segments + 1);
-            }
-            // Continue with the hero's direction.
-            let d = lobe.sample(wo, sampler.next2());
-            s.beta *= d.weight;
-            s.pdf_dir_prev = d.pdf;
-            if MEDIA {
-                s.medium = scene.medium_after(&it, d.wi, s.medium);
-            }
-            ray = spawn_ray(it.p, it.n, d.wi);
             if let Some(rr) = self.rr_depth
                 && depth >= rr
             {
@@ -216,6 +192,46 @@ impl Walk {
         let r = s.radiance;
         let xyz = Vec3::new(r.dot(wx), r.dot(wy), r.dot(wz)) * (obs.inv_y_integral / pdf_sum);
         sink.add(xyz);
+    }
+
+    /// Scatter at the surface `it` (direction back `wo`): the lanes' wavelengths, next-event
+    /// estimation and the hero's new direction; `None` ends the path.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn surface_vertex<L: Lanes, const MEDIA: bool>(
+        &self,
+        scene: &Scene,
+        it: &Interaction,
+        wo: Vec3,
+        s: &mut PathState<L>,
+        lanes: LaneBalance<L>,
+        sampler: &mut Sampler,
+        sink: &mut SampleSink,
+    ) -> Option<Ray> {
+        let m: &Material = &scene.materials[it.material as usize];
+        let (new_lambda, w) = self.scatter_wavelengths(scene, m, s.lambda, sampler)?;
+        s.beta *= w;
+        s.lambda = new_lambda;
+        if !positive(s.beta.max_lane()) {
+            return None;
+        }
+        s.vertex(it.p, self.lanes);
+        let lobe = Scattering::Diffuse { n: it.n };
+        let a = Endpoint { p: it.p, n: it.n };
+        let iface = if MEDIA { scene.interface(it) } else { None };
+        let c = self.next_event::<L, MEDIA>(scene, a, iface, wo, lobe, s, lanes, sampler, sink);
+        if c.max_lane() > 0.0 {
+            s.radiance += c;
+            sink.stats.contribution(s.segments + 1);
+        }
+        // Continue with the hero's direction.
+        let d = lobe.sample(wo, sampler.next2());
+        s.beta *= d.weight;
+        s.pdf_dir_prev = d.pdf;
+        if MEDIA {
+            s.medium = scene.medium_after(it, d.wi, s.medium);
+        }
+        Some(spawn_ray(it.p, it.n, d.wi))
     }
 
     /// The contribution of the emitter hit at `it` (the path's `depth`-th vertex), weighted by
@@ -454,6 +470,8 @@ struct PathState<L> {
     prev_p: Vec3,
     /// The medium the path is in.
     medium: u32,
+    /// Segments of the path up to its last surface vertex (for the statistics).
+    segments: usize,
 }
 
 impl<L: Lanes> PathState<L> {
@@ -469,6 +487,7 @@ impl<L: Lanes> PathState<L> {
             pdf_dir_prev: 0.0,
             prev_p: origin,
             medium,
+            segments: 0,
         }
     }
 
