@@ -73,3 +73,8 @@ fn cornell_box_medium_matches_mitsuba_volpath() {
 fn cornell_box_matches_mitsuba_path() {
     check("cornell-box", 64);
 }
+
+#[test]
+fn cornell_box_grid_matches_mitsuba_volpath() {
+    check("cornell-box-grid", 256);
+}
