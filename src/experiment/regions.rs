@@ -1,11 +1,14 @@
-//! Regions of a run: the material or shape each pixel sees, as masks for per-region metrics and
-//! as `regions.json` in the run folder.
+//! Regions of a run: the material or shape each pixel sees (through index-matched medium
+//! boundaries), as masks for per-region metrics and as `regions.json` in the run folder.
 
 use super::config::RegionBy;
 use super::record::write_text;
 use super::setup::Setup;
 use crate::error::Error;
-use crate::scene::Scene;
+use crate::geometry::Ray;
+use crate::geometry::ray::spawn_ray;
+use crate::scene::{Interaction, NONE, Scene};
+use crate::transport::media::MAX_CROSSINGS;
 use std::path::Path;
 
 /// A named region and its pixels.
@@ -40,7 +43,21 @@ pub fn masks(s: &Setup, run_dir: &Path) -> Result<Vec<Region>, Error> {
     Ok(regions)
 }
 
-/// Region of each pixel (index into `names`), from a primary ray through the pixel centre.
+/// The first surface along `ray` that is not an index-matched boundary of a medium (those are
+/// invisible: no material, no emission).
+fn first_visible(scene: &Scene, mut ray: Ray) -> Option<Interaction> {
+    for _ in 0..MAX_CROSSINGS {
+        let hit = scene.intersect(&ray, f32::INFINITY)?;
+        if hit.material != NONE || hit.light != NONE {
+            return Some(hit);
+        }
+        ray = spawn_ray(hit.p, hit.n, ray.d);
+    }
+    None
+}
+
+/// Region of each pixel (index into `names`), from a primary ray through the pixel centre to
+/// the first visible surface.
 pub fn region_ids(scene: &Scene, by: RegionBy) -> (Vec<String>, Vec<Option<u16>>) {
     let names: Vec<String> = match by {
         RegionBy::Material => scene.material_names.clone(),
@@ -51,7 +68,7 @@ pub fn region_ids(scene: &Scene, by: RegionBy) -> (Vec<String>, Vec<Option<u16>>
     for y in 0..h {
         for x in 0..w {
             let ray = scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5);
-            let id = scene.intersect(&ray, f32::INFINITY).map(|hit| {
+            let id = first_visible(scene, ray).map(|hit| {
                 let p = scene.prims[hit.prim as usize];
                 match by {
                     RegionBy::Material => p.material as u16,
