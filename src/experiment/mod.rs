@@ -12,8 +12,9 @@ pub mod record;
 pub mod runner;
 
 // The steps of a run, which `runner` takes in the order setup, reference, regions, variants,
-// grid; `progress` is the bar they share.
+// grid; `progress` is the bar they share, `overrides` changes the scene JSON for the grid.
 mod grid;
+mod overrides;
 mod progress;
 mod reference;
 mod regions;
