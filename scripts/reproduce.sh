@@ -34,6 +34,10 @@ experiments=(
   hero-vs-mono-uv
   fluorescence-parameters
   bin-width
+  media-tracking
+  media-tracking-scattering
+  media-absorption-sweep
+  media-emission-width
 )
 
 failed=()

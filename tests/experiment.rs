@@ -386,3 +386,117 @@ fn quick_parameter_grid() {
     assert!(run.join("grid/r3_c3.exr").is_file());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+fn divider() -> String {
+    repo()
+        .join("scenes/media-divider.json")
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+fn sweep_config(path: &str) -> String {
+    format!(
+        r#"{{ "name": "sw", "scene": "{}",
+            "reference": {{ "integrator": "pt-hero", "spp": 16 }},
+            "variants": [ {{ "name": "exp", "integrator": "pt-mono", "options": {{ "tracking": "exponential" }} }},
+                          {{ "name": "aware", "integrator": "pt-mono" }} ],
+            "budget": {{ "spp": [1, 2] }},
+            "sweep": {{ "path": "{path}", "values": [0, 0.5], "label": "σa" }} }}"#,
+        divider()
+    )
+}
+
+#[test]
+fn quick_sweep_runs_every_value() {
+    let (code, err, d) = run_config("sweep", &sweep_config("media.fluid.sigma_a"));
+    assert_eq!(code, 0, "{err}");
+    let out = d.join("results");
+    let latest = std::fs::read_to_string(out.join("sw/latest")).expect("latest written");
+    let run = out.join("sw").join(latest.trim());
+    for f in [
+        "run.json",
+        "sweep.json",
+        "figures/snr-vs-sweep.svg",
+        "sweep/0/metrics.csv",
+        "sweep/0/reference.exr",
+        "sweep/0/figures/image-grid.png",
+        "sweep/1/metrics.csv",
+        "sweep/1/reference.exr",
+        "sweep/1/figures/snr-vs-spp.svg",
+    ] {
+        assert!(run.join(f).is_file(), "missing {f} in {}", run.display());
+    }
+    let rec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(rec["path"], "media.fluid.sigma_a");
+    let points = rec["points"].as_array().unwrap();
+    assert_eq!(points.len(), 2);
+    assert_eq!(
+        (&points[0]["value"], &points[1]["value"]),
+        (&0.into(), &0.5.into())
+    );
+    for p in points {
+        let fin = p["final"].as_array().unwrap();
+        assert!(
+            fin.iter()
+                .any(|e| e["variant"] == "exp" && e["repeats"] == 1)
+        );
+        assert!(
+            fin.iter()
+                .any(|e| e["variant"] == "aware" && e["budget"] == 2.0)
+        );
+    }
+    // The value reached the scene: absorption darkens the reference.
+    let mean = |i: usize| {
+        let (_, _, px) =
+            stokes::film::output::read_exr(&run.join(format!("sweep/{i}/reference.exr"))).unwrap();
+        px.iter().map(|c| c.x + c.y + c.z).sum::<f32>() / px.len() as f32
+    };
+    let (clear, absorbing) = (mean(0), mean(1));
+    assert!(
+        absorbing < 0.8 * clear,
+        "σa = 0: {clear}, σa = 0.5: {absorbing}"
+    );
+    // Figures regenerate from the stored results alone.
+    std::fs::remove_dir_all(run.join("figures")).unwrap();
+    std::fs::remove_dir_all(run.join("sweep/1/figures")).unwrap();
+    let st = Command::new(bin())
+        .arg("figures")
+        .arg(out.join("sw"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    assert!(run.join("figures/snr-vs-sweep.svg").is_file());
+    assert!(run.join("sweep/1/figures/image-grid.png").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn sweep_path_missing_from_the_scene_is_an_input_error() {
+    let (code, err, d) = run_config("sweep-bad", &sweep_config("media.fog.sigma_a"));
+    assert_eq!(code, 2, "exit code {code}, stderr: {err}");
+    assert!(err.contains("sweep.path"), "{err}");
+    assert!(err.contains("config.json"), "names the config file: {err}");
+    assert!(
+        err.contains("media-divider.json"),
+        "names the scene file: {err}"
+    );
+    assert!(err.contains("\"fog\""), "names the missing key: {err}");
+    assert!(!d.join("results/sw").exists(), "nothing rendered");
+    let _ = std::fs::remove_dir_all(&d);
+    assert_input_error(
+        "sweep-not-object",
+        &sweep_config("shapes.0.material"),
+        "sweep.path",
+    );
+    assert_input_error(
+        "sweep-empty-key",
+        &sweep_config("media..sigma_a"),
+        "sweep.path",
+    );
+    assert_input_error(
+        "sweep-empty-values",
+        &sweep_config("media.fluid.sigma_a").replace("[0, 0.5]", "[]"),
+        "sweep.values",
+    );
+}

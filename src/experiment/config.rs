@@ -41,6 +41,10 @@ pub struct Config {
     /// Material parameter grid (Jung Fig. 7.13): renders the first variant once per cell.
     #[serde(default)]
     pub grid: Option<Grid>,
+    /// One scene parameter stepped through values (Mojzík Figs. 18, 19): the whole experiment
+    /// runs once per value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<Sweep>,
 }
 
 fn one() -> u32 {
@@ -130,6 +134,25 @@ pub struct Grid {
 pub struct GridAxis {
     pub field: String,
     pub values: Vec<f64>,
+}
+
+/// A scene parameter at a dot path (`media.fluid.sigma_a`) set to each value in turn.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Dot path of object keys into the scene JSON; the last key must exist in the scene.
+    pub path: String,
+    /// The values, any JSON (a number, a spectrum object, …).
+    pub values: Vec<serde_json::Value>,
+    /// Axis label of the summary figure (default: the path).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
+}
+
+impl Sweep {
+    pub fn label(&self) -> &str {
+        self.label.as_deref().unwrap_or(&self.path)
+    }
 }
 
 /// Which budget kind a snapshot belongs to.
@@ -222,6 +245,13 @@ impl Config {
     }
 
     fn validate_reference(&self, file: &Path) -> Result<(), InputError> {
+        if self.sweep.is_some() && self.reference.as_ref().is_some_and(|r| r.exr.is_some()) {
+            return Err(err(
+                file,
+                "reference.exr",
+                "a sweep renders a reference per value: give `integrator` and `spp`",
+            ));
+        }
         let Some(r) = &self.reference else {
             if self.grid.is_none() {
                 return Err(err(
@@ -309,7 +339,7 @@ impl Config {
         Ok(())
     }
 
-    /// Repeats, threads, crop, scanline and grid.
+    /// Repeats, threads, crop, scanline, grid and sweep.
     fn validate_rest(&self, file: &Path) -> Result<(), InputError> {
         if self.repeats == 0 || self.repeats > 1000 {
             return Err(err(file, "repeats", "must be 1–1000"));
@@ -336,6 +366,21 @@ impl Config {
                 if a.values.is_empty() {
                     return Err(err(file, &format!("grid.{n}.values"), "must not be empty"));
                 }
+            }
+        }
+        if let Some(sw) = &self.sweep {
+            if self.grid.is_some() {
+                return Err(err(file, "sweep", "cannot be combined with `grid`"));
+            }
+            if sw.path.is_empty() || sw.path.split('.').any(str::is_empty) {
+                return Err(err(
+                    file,
+                    "sweep.path",
+                    format!("{:?} is not a dot path of object keys", sw.path),
+                ));
+            }
+            if sw.values.is_empty() {
+                return Err(err(file, "sweep.values", "must not be empty"));
             }
         }
         Ok(())

@@ -5,6 +5,7 @@
 
 use super::config::BudgetMode;
 use super::record::{Row, RunInfo, image_file, read_metrics};
+use super::sweep::{SweepRecord, compact, final_entries};
 use crate::film::output::read_exr;
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
@@ -39,6 +40,15 @@ pub fn resolve_run_dir(dir: &Path) -> R<PathBuf> {
 pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
     let dir = resolve_run_dir(dir)?;
     let info = RunInfo::read(&dir)?;
+    if info.config.sweep.is_some() {
+        // A sweep: every value's folder is a run of its own, plus the summary.
+        let mut out = Vec::new();
+        for p in SweepRecord::read(&dir)?.points {
+            out.extend(make_all(&dir.join(&p.dir))?);
+        }
+        out.extend(sweep_summary(&dir)?);
+        return Ok(out);
+    }
     let rows = read_metrics(&dir.join("metrics.csv"))?;
     let fig = dir.join("figures");
     std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;
@@ -643,6 +653,133 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
     } else {
         pick(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
     }
+}
+
+/// The sweep's summary: final-budget SNR (mean line, min–max band over repeats) per variant
+/// against the swept value, `figures/snr-vs-sweep[-region].svg`, from each value's
+/// `metrics.csv`. The values are evenly spaced and labelled with their text, so a value may be
+/// any JSON.
+pub fn sweep_summary(dir: &Path) -> R<Vec<PathBuf>> {
+    let info = RunInfo::read(dir)?;
+    let rec = SweepRecord::read(dir)?;
+    let fig = dir.join("figures");
+    std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;
+    let mut finals = Vec::new();
+    for p in &rec.points {
+        finals.push(final_entries(&read_metrics(
+            &dir.join(&p.dir).join("metrics.csv"),
+        )?));
+    }
+    let mut regions: Vec<String> = Vec::new();
+    for e in finals.iter().flatten() {
+        if !regions.contains(&e.region) {
+            regions.push(e.region.clone());
+        }
+    }
+    let mut out = Vec::new();
+    for region in &regions {
+        let suffix = if region == "all" {
+            String::new()
+        } else {
+            format!("-{region}")
+        };
+        let p = fig.join(format!("snr-vs-sweep{suffix}.svg"));
+        let ls = sweep_lines(&finals, region);
+        let labels: Vec<String> = rec
+            .points
+            .iter()
+            .map(|p| short(&compact(&p.value)))
+            .collect();
+        let title = format!(
+            "{}: SNR at the final budget vs {} ({region})",
+            info.config.name, rec.label
+        );
+        sweep_plot(&ls, &labels, &rec.label, &title, &p)?;
+        out.push(p);
+    }
+    Ok(out)
+}
+
+/// One line per variant (and mode, when there are two) through the values' final-budget SNR.
+fn sweep_lines(finals: &[Vec<super::record::SummaryEntry>], region: &str) -> Vec<Line> {
+    let modes: Vec<&str> = {
+        let mut m: Vec<&str> = finals.iter().flatten().map(|e| e.mode.as_str()).collect();
+        m.sort();
+        m.dedup();
+        m
+    };
+    let mut out: Vec<Line> = Vec::new();
+    for (i, entries) in finals.iter().enumerate() {
+        for e in entries.iter().filter(|e| e.region == region) {
+            let s = e.snr_db;
+            if !s.mean.is_finite() {
+                continue;
+            }
+            let name = if modes.len() > 1 {
+                format!("{} ({})", e.variant, e.mode)
+            } else {
+                e.variant.clone()
+            };
+            let pt = (i as f64, s.mean, s.min, s.max);
+            match out.iter_mut().find(|l| l.name == name) {
+                Some(l) => l.pts.push(pt),
+                None => out.push(Line {
+                    name,
+                    pts: vec![pt],
+                }),
+            }
+        }
+    }
+    out
+}
+
+fn short(s: &str) -> String {
+    if s.chars().count() <= 24 {
+        s.to_string()
+    } else {
+        format!("{}…", s.chars().take(23).collect::<String>())
+    }
+}
+
+fn sweep_plot(ls: &[Line], labels: &[String], xlabel: &str, title: &str, path: &Path) -> R<()> {
+    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(de)?;
+    let all: Vec<&(f64, f64, f64, f64)> = ls.iter().flat_map(|l| &l.pts).collect();
+    if all.is_empty() {
+        root.titled(&format!("{title}: no data"), ("sans-serif", 18))
+            .map_err(de)?;
+        root.present().map_err(de)?;
+        return Ok(());
+    }
+    let y0 = all.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
+    let y1 = all.iter().map(|p| p.3).fold(f64::NEG_INFINITY, f64::max);
+    let pad = ((y1 - y0) * 0.1).max(0.5);
+    let n = labels.len();
+    let mut c = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(-0.5..n as f64 - 0.5, (y0 - pad)..(y1 + pad))
+        .map_err(de)?;
+    c.configure_mesh()
+        .x_desc(xlabel)
+        .y_desc("SNR (dB)")
+        .x_labels(n + 2)
+        .x_label_formatter(&|v| {
+            let i = v.round();
+            if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
+                labels[i as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(de)?;
+    draw_lines(&mut c, ls, SeriesLabelPosition::UpperRight)?;
+    root.present().map_err(de)?;
+    Ok(())
 }
 
 /// One line per variant with its repeat spread shaded, markers and a legend.

@@ -2,6 +2,7 @@
 //! budget of the first mode, with two parameters of one material set to the cell's values.
 
 use super::config::{BudgetMode, Grid};
+use super::overrides::{self, Missing};
 use super::progress::per_job;
 use super::record::{GridCell, mkdir};
 use super::setup::Setup;
@@ -44,8 +45,7 @@ fn render_cell(
     let mb = &s.modes[0];
     let last = *mb.budgets.last().unwrap();
     let mut scene = scene_with_override(
-        &s.scene_path,
-        &s.scene_text,
+        s,
         &g.material,
         &[(&g.rows.field, rv), (&g.columns.field, cv)],
     )
@@ -75,27 +75,23 @@ fn render_cell(
     })
 }
 
-/// Load a scene with parameters of one material overridden.
+/// Load the scene with the fields `overrides` of the grid's material set (inserted when the
+/// material leaves them to their defaults).
 fn scene_with_override(
-    path: &Path,
-    text: &str,
+    s: &Setup,
     material: &str,
     overrides: &[(&str, f64)],
 ) -> Result<Scene, Error> {
-    let mut v: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| Error::input(format!("{}: {e}", path.display())))?;
-    let m = v
-        .get_mut("materials")
-        .and_then(|m| m.get_mut(material))
-        .and_then(|m| m.as_object_mut())
-        .ok_or_else(|| {
+    let paths: Vec<(String, serde_json::Value)> = overrides
+        .iter()
+        .map(|(k, x)| (format!("materials.{material}.{k}"), serde_json::json!(x)))
+        .collect();
+    let text =
+        overrides::apply(&s.scene_text, &s.scene_path, &paths, Missing::Insert).map_err(|e| {
             Error::input(format!(
-                "grid.material: no material {material:?} in '{}'",
-                path.display()
+                "grid.material: {e} in '{}'",
+                s.scene_path.display()
             ))
         })?;
-    for (k, x) in overrides {
-        m.insert((*k).to_string(), serde_json::json!(x));
-    }
-    Ok(Scene::from_str(path, &v.to_string())?)
+    Ok(Scene::from_str(&s.scene_path, &text)?)
 }

@@ -12,12 +12,15 @@ pub mod record;
 pub mod runner;
 
 // The steps of a run, which `runner` takes in the order setup, reference, regions, variants,
-// grid; `progress` is the bar they share.
+// grid (once per value of a `sweep`); `progress` is the bar they share, `overrides` changes the
+// scene JSON for the grid and the sweep.
 mod grid;
+mod overrides;
 mod progress;
 mod reference;
 mod regions;
 mod setup;
+mod sweep;
 mod variants;
 
 pub use config::Config;

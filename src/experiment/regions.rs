@@ -1,5 +1,5 @@
-//! Regions of a run: the material or shape each pixel sees, as masks for per-region metrics and
-//! as `regions.json` in the run folder.
+//! Regions of a run: the material or shape each pixel sees (through index-matched medium
+//! boundaries), as masks for per-region metrics and as `regions.json` in the run folder.
 
 use super::config::RegionBy;
 use super::record::write_text;
@@ -40,7 +40,8 @@ pub fn masks(s: &Setup, run_dir: &Path) -> Result<Vec<Region>, Error> {
     Ok(regions)
 }
 
-/// Region of each pixel (index into `names`), from a primary ray through the pixel centre.
+/// Region of each pixel (index into `names`), from a primary ray through the pixel centre to
+/// the first visible surface.
 pub fn region_ids(scene: &Scene, by: RegionBy) -> (Vec<String>, Vec<Option<u16>>) {
     let names: Vec<String> = match by {
         RegionBy::Material => scene.material_names.clone(),

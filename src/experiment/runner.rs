@@ -1,17 +1,21 @@
 //! Runs an experiment config, one step after the other: load the config and scene and check the
 //! integrators ([`Setup`]), make the run folder, get the reference, render the variants at their
-//! budgets with metrics, render the parameter grid, then write the results and figures.
+//! budgets with metrics, render the parameter grid, then write the results and figures. A sweep
+//! takes those steps once per value, each into a run folder of its own under `sweep/<index>/`.
 
+use super::config::Sweep;
 use super::record::{
     GridCell, Row, RunInfo, SummaryEntry, metrics_csv, mkdir, new_run_dir, summarize, timestamp,
     write_text,
 };
 use super::regions::{self, Region};
 use super::setup::Setup;
+use super::sweep::{self, Point, SweepRecord};
 use super::variants::Runs;
 use super::{figures, grid, progress, reference};
 use crate::error::Error;
 use crate::film::output::write_exr;
+use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 
 /// Run the experiment in `config_path`; results go under `root` (default `results`).
@@ -23,12 +27,38 @@ pub fn run_experiment(
 ) -> Result<PathBuf, Error> {
     let setup = Setup::load(config_path, root, quick)?;
     setup.check_integrators()?;
-    let bar = progress::bar(progress::total(&setup.cfg, &setup.modes));
+    let points = sweep::points(&setup)?;
+    let runs = points.len().max(1) as u64;
+    let bar = progress::bar(progress::total(&setup.cfg, &setup.modes) * runs);
     let (run_dir, run_name) = new_run_dir(&setup.root, &setup.cfg.name)?;
-    mkdir(&run_dir.join("images"))?;
     let started = timestamp();
+    match &setup.cfg.sweep {
+        None => {
+            let rows = run_steps(&setup, &run_dir, &bar, started)?;
+            bar.finish_and_clear();
+            print_summary(&rows);
+        }
+        Some(sw) => run_sweep(&setup, sw, &points, &run_dir, &bar, started)?,
+    }
+    // Only now does `latest` move to this run.
+    write_text(
+        &setup.root.join(&setup.cfg.name).join("latest"),
+        &format!("runs/{run_name}\n"),
+    )?;
+    eprintln!("results: {}", run_dir.display());
+    Ok(run_dir)
+}
 
-    let reference = reference::get(&setup, &bar)?;
+/// One run into `run_dir`: reference, regions, variants at their budgets, parameter grid, then
+/// `metrics.csv`, `summary.json`, `run.json` and the figures. Returns the metrics rows.
+fn run_steps(
+    setup: &Setup,
+    run_dir: &Path,
+    bar: &ProgressBar,
+    started: String,
+) -> Result<Vec<Row>, Error> {
+    mkdir(&run_dir.join("images"))?;
+    let reference = reference::get(setup, bar)?;
     if let Some(img) = &reference {
         write_exr(
             &run_dir.join("reference.exr"),
@@ -38,29 +68,56 @@ pub fn run_experiment(
         )
         .map_err(Error::runtime)?;
     }
-    let regions = regions::masks(&setup, &run_dir)?;
+    let regions = regions::masks(setup, run_dir)?;
     let rows = Runs {
-        setup: &setup,
-        run_dir: &run_dir,
+        setup,
+        run_dir,
         reference: reference.as_deref(),
         regions: &regions,
-        bar: &bar,
+        bar,
     }
     .render_all()?;
-    let grid_cells = grid::render_cells(&setup, &run_dir, &bar)?;
-    bar.finish_and_clear();
+    let grid_cells = grid::render_cells(setup, run_dir, bar)?;
+    let info = run_info(setup, reference.is_some(), &regions, grid_cells, started);
+    write_results(run_dir, &rows, &info)?;
+    figures::make_all(run_dir).map_err(Error::runtime)?;
+    Ok(rows)
+}
 
-    let info = run_info(&setup, reference.is_some(), &regions, grid_cells, started);
-    write_results(&run_dir, &rows, &info)?;
-    figures::make_all(&run_dir).map_err(Error::runtime)?;
-    print_summary(&rows);
-    // Only now does `latest` move to this run.
+/// The sweep: one run per value into `sweep/<index>/`, then `sweep.json`, the sweep's own
+/// `run.json` (the config with its sweep) and the summary figure.
+fn run_sweep(
+    setup: &Setup,
+    sw: &Sweep,
+    points: &[Point],
+    run_dir: &Path,
+    bar: &ProgressBar,
+    started: String,
+) -> Result<(), Error> {
+    let mut results = Vec::new();
+    for p in points {
+        let dir = run_dir.join(&p.dir);
+        mkdir(&dir)?;
+        let rows = run_steps(&p.setup, &dir, bar, timestamp())?;
+        results.push((p, rows));
+    }
+    bar.finish_and_clear();
+    let record = SweepRecord::new(sw, &results);
     write_text(
-        &setup.root.join(&setup.cfg.name).join("latest"),
-        &format!("runs/{run_name}\n"),
+        &run_dir.join("sweep.json"),
+        &serde_json::to_string_pretty(&record).unwrap(),
     )?;
-    eprintln!("results: {}", run_dir.display());
-    Ok(run_dir)
+    let info = run_info(setup, false, &[], Vec::new(), started);
+    write_text(
+        &run_dir.join("run.json"),
+        &serde_json::to_string_pretty(&info).unwrap(),
+    )?;
+    figures::sweep_summary(run_dir).map_err(Error::runtime)?;
+    for (p, rows) in &results {
+        eprintln!("{} = {}:", sw.label(), sweep::compact(&p.value));
+        print_summary(rows);
+    }
+    Ok(())
 }
 
 /// The `run.json` record of a run.

@@ -161,6 +161,28 @@ impl Setup {
             .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
     }
 
+    /// This run with another config and scene (a sweep value's): the same config file, results
+    /// root, resolution, crop, scanline and budgets.
+    pub fn with_scene(&self, cfg: Config, scene_text: String, mut scene: Scene) -> Setup {
+        resize_camera(&mut scene, self.width, self.height);
+        Setup {
+            cfg,
+            config_path: self.config_path.clone(),
+            quick: self.quick,
+            root: self.root.clone(),
+            scene_path: self.scene_path.clone(),
+            scene_text,
+            scene,
+            full_width: self.full_width,
+            full_height: self.full_height,
+            width: self.width,
+            height: self.height,
+            crop: self.crop,
+            scanline: self.scanline,
+            modes: self.modes.clone(),
+        }
+    }
+
     /// Give `scene` (e.g. a parameter-grid variant of this one) the run's resolution.
     pub fn resize(&self, scene: &mut Scene) {
         resize_camera(scene, self.width, self.height);
