@@ -158,6 +158,12 @@ fn quadrants(
     (mean, se)
 }
 
+/// Whether the standard error of the difference is below 5 % of the value in every quadrant
+/// (else the comparison would not mean much).
+fn noise_ok(a: ([f64; 4], [f64; 4]), b: ([f64; 4], [f64; 4])) -> bool {
+    (0..4).all(|r| (a.1[r].powi(2) + b.1[r].powi(2)).sqrt() < 0.05 * a.0[r].abs().max(1e-3))
+}
+
 /// Two estimators agree per quadrant within 3σ of their difference.
 fn assert_agree(what: &str, a: ([f64; 4], [f64; 4]), b: ([f64; 4], [f64; 4])) {
     for r in 0..4 {
@@ -173,10 +179,7 @@ fn assert_agree(what: &str, a: ([f64; 4], [f64; 4]), b: ([f64; 4], [f64; 4])) {
             a.0[r],
             b.0[r]
         );
-        assert!(
-            sigma < 0.05 * a.0[r].abs().max(1e-3),
-            "{what}: too noisy to compare"
-        );
+        assert!(noise_ok(a, b), "{what}: too noisy to compare");
     }
 }
 
@@ -359,8 +362,21 @@ fn mono_and_hero_agree_on_every_media_scene() {
             max_depth: 12,
             ..Default::default()
         };
-        let hero = quadrants(&scene, IntegratorKind::PtHero, &opts, 128, 6);
-        let mono = quadrants(&scene, IntegratorKind::PtMono, &opts, 256, 6);
-        assert_agree(&format!("{stem}: pt-hero vs pt-mono"), hero, mono);
+        // Quadrupled samples until the comparison is meaningful (scenes lit by one narrow band
+        // are noisy for a tracer that samples camera wavelengths over the whole range).
+        let mut spp = 128;
+        loop {
+            let hero = quadrants(&scene, IntegratorKind::PtHero, &opts, spp, 6);
+            let mono = quadrants(&scene, IntegratorKind::PtMono, &opts, 2 * spp, 6);
+            if noise_ok(hero, mono) || spp >= 2048 {
+                assert_agree(
+                    &format!("{stem}: pt-hero vs pt-mono ({spp} spp)"),
+                    hero,
+                    mono,
+                );
+                break;
+            }
+            spp *= 4;
+        }
     }
 }
