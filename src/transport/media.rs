@@ -80,34 +80,28 @@ fn travel_grid<L: Lanes>(
         .fold(0.0f32, f32::max);
     let one = L::splat_n(n, 1.0);
     let (mut factor, mut ratio) = (one, one);
-    for (t0, t1, max_density) in g.majorant.segments(ray.o, ray.d, 0.0, t_max) {
-        let mu = max_density * g.scale * c_max;
-        if !(mu > 0.0) {
-            continue;
+    let mut collision = None;
+    tentative_collisions(g, ray, t_max, c_max, u, |t, rho, mu, u| {
+        let s = c.hat_s * rho;
+        let null = L::from_fn(n, |j| (mu - c.hat_t.lane(j) * rho).max(0.0));
+        let p_collide = L::from_fn(n, |j| {
+            let total = s.lane(j) + null.lane(j);
+            if total > 0.0 { s.lane(j) / total } else { 0.0 }
+        });
+        let p_h = p_collide.lane(0);
+        if u < p_h {
+            factor *= rho / (mu * p_h);
+            ratio *= p_collide * (1.0 / p_h);
+            collision = Some(t);
+            return false;
         }
-        let mut t = t0;
-        loop {
-            t -= (1.0 - u()).ln() / mu;
-            if t >= t1 {
-                break;
-            }
-            let rho = g.grid.density(ray.at(t)) * g.scale;
-            let s = c.hat_s * rho;
-            let null = L::from_fn(n, |j| (mu - c.hat_t.lane(j) * rho).max(0.0));
-            let p_collide = L::from_fn(n, |j| {
-                let total = s.lane(j) + null.lane(j);
-                if total > 0.0 { s.lane(j) / total } else { 0.0 }
-            });
-            let p_h = p_collide.lane(0);
-            if u() < p_h {
-                factor *= rho / (mu * p_h);
-                ratio *= p_collide * (1.0 / p_h);
-                return Travel::Collision { t, factor, ratio };
-            }
-            let q_h = 1.0 - p_h;
-            factor *= null * (1.0 / (mu * q_h));
-            ratio *= L::from_fn(n, |j| (1.0 - p_collide.lane(j)) / q_h);
-        }
+        let q_h = 1.0 - p_h;
+        factor *= null * (1.0 / (mu * q_h));
+        ratio *= L::from_fn(n, |j| (1.0 - p_collide.lane(j)) / q_h);
+        true
+    });
+    if let Some(t) = collision {
+        return Travel::Collision { t, factor, ratio };
     }
     Travel::Pass {
         factor,
@@ -234,7 +228,26 @@ fn ratio_tracking<L: Lanes>(
     let c = medium.coefficients.at(n, lambda);
     let c_max = (0..n).map(|j| c.hat_t.lane(j)).fold(0.0f32, f32::max);
     let mut tr = L::splat_n(n, 1.0);
-    for (t0, t1, max_density) in g.majorant.segments(ray.o, ray.d, 0.0, len) {
+    tentative_collisions(g, ray, len, c_max, u, |_, rho, mu, _| {
+        tr *= L::from_fn(n, |j| 1.0 - c.hat_t.lane(j) * rho / mu);
+        tr.max_lane() > 0.0
+    });
+    tr
+}
+
+/// The tentative collisions of delta and ratio tracking along `ray` up to `t_max` in a grid:
+/// exponential steps against the majorant μ = (max density of the DDA cell) × `c_max`; `visit`
+/// gets (t, density, μ, a uniform number for its decision) and returns false to stop.
+#[inline(always)]
+fn tentative_collisions(
+    g: &GridDensity,
+    ray: &Ray,
+    t_max: f32,
+    c_max: f32,
+    u: &mut impl FnMut() -> f32,
+    mut visit: impl FnMut(f32, f32, f32, f32) -> bool,
+) {
+    for (t0, t1, max_density) in g.majorant.segments(ray.o, ray.d, 0.0, t_max) {
         let mu = max_density * g.scale * c_max;
         if !(mu > 0.0) {
             continue;
@@ -246,13 +259,11 @@ fn ratio_tracking<L: Lanes>(
                 break;
             }
             let rho = g.grid.density(ray.at(t)) * g.scale;
-            tr *= L::from_fn(n, |j| 1.0 - c.hat_t.lane(j) * rho / mu);
-            if !(tr.max_lane() > 0.0) {
-                return tr;
+            if !visit(t, rho, mu, u()) {
+                return;
             }
         }
     }
-    tr
 }
 
 /// Transmittance from `a` (in medium `medium`) to `b` at every lane, through index-matched
