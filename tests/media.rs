@@ -308,20 +308,13 @@ fn narrow_emission_furnace_stays_finite() {
 /// Inf sample (16×16 pixels, 4 spp).
 #[test]
 fn every_media_scene_is_free_of_nan() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut count = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "json") {
-            continue;
-        }
-        let mut scene = Scene::load(&path).unwrap();
-        if !scene.has_media {
-            continue;
-        }
-        count += 1;
-        scene.camera.width = 16;
-        scene.camera.height = 16;
+    let scenes = media_scenes(16);
+    assert!(
+        scenes.len() >= 4,
+        "only {} media scenes found",
+        scenes.len()
+    );
+    for (path, scene) in scenes {
         for tracking in [Tracking::Aware, Tracking::Max, Tracking::Exponential] {
             for kind in [IntegratorKind::PtMono, IntegratorKind::PtHero] {
                 let opts = IntegratorOptions {
@@ -331,33 +324,42 @@ fn every_media_scene_is_free_of_nan() {
                 };
                 // mean_xyz asserts nan_inf_rejected == 0 and finite pixels.
                 let (xyz, _) = mean_xyz(&scene, kind, &opts, 4, 1);
-                assert!(xyz.y >= 0.0, "{}: {kind:?} {tracking:?}", path.display());
+                assert!(xyz.y >= 0.0, "{path}: {kind:?} {tracking:?}");
             }
         }
     }
-    assert!(count >= 4, "only {count} media scenes found");
+}
+
+/// Every scene file with media, by name, resized to `size`×`size` pixels.
+fn media_scenes(size: u32) -> Vec<(String, Scene)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    paths
+        .into_iter()
+        .filter_map(|path| {
+            let mut scene = Scene::load(&path).unwrap();
+            scene.camera.width = size;
+            scene.camera.height = size;
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            scene.has_media.then_some((stem, scene))
+        })
+        .collect()
 }
 
 /// pt-mono and pt-hero agree per quadrant on every other scene with media (24×24 pixels, 6
 /// seeds; the Cornell-box medium, the smoke grid and the furnaces have their own tests).
 #[test]
 fn mono_and_hero_agree_on_every_media_scene() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let skip = ["cornell-box-medium", "media-smoke", "furnace-medium"];
-    let mut names: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
-    names.sort();
-    for path in names {
-        let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-        let mut scene = Scene::load(&path).unwrap();
-        if !scene.has_media || skip.contains(&stem.as_str()) {
+    for (stem, scene) in media_scenes(24) {
+        if skip.contains(&stem.as_str()) {
             continue;
         }
-        scene.camera.width = 24;
-        scene.camera.height = 24;
         let opts = IntegratorOptions {
             max_depth: 12,
             ..Default::default()

@@ -57,11 +57,7 @@ pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
         let mut regions = vec!["all".to_string()];
         regions.extend(info.region_names.iter().cloned());
         for region in &regions {
-            let suffix = if region == "all" {
-                String::new()
-            } else {
-                format!("-{region}")
-            };
+            let suffix = region_suffix(region);
             let p = fig.join(format!("relmse-vs-seconds{suffix}.svg"));
             convergence(&info, &rows, region, true, &p)?;
             out.push(p);
@@ -678,11 +674,7 @@ pub fn sweep_summary(dir: &Path) -> R<Vec<PathBuf>> {
     }
     let mut out = Vec::new();
     for region in &regions {
-        let suffix = if region == "all" {
-            String::new()
-        } else {
-            format!("-{region}")
-        };
+        let suffix = region_suffix(region);
         let p = fig.join(format!("snr-vs-sweep{suffix}.svg"));
         let ls = sweep_lines(&finals, region);
         let labels: Vec<String> = rec
@@ -820,4 +812,13 @@ where
         .draw()
         .map_err(de)?;
     Ok(())
+}
+
+/// The file-name suffix of a region's figure: none for the whole image, `-name` otherwise.
+fn region_suffix(region: &str) -> String {
+    if region == "all" {
+        String::new()
+    } else {
+        format!("-{region}")
+    }
 }

@@ -32,7 +32,6 @@ pub struct Fluorophore {
     /// ∫ a dλ over the domain.
     pub a_integral: f32,
     a_dist: Distribution1D,
-    e_dist: Distribution1D,
 }
 
 impl Fluorophore {
@@ -41,7 +40,6 @@ impl Fluorophore {
         let a_integral = a.integral(domain.min, domain.max) as f32;
         Fluorophore {
             a_dist: Distribution1D::from_spectrum(&a, domain, 1.0),
-            e_dist: Distribution1D::from_spectrum(&e, domain, 1.0),
             a,
             c,
             e,
@@ -178,13 +176,6 @@ impl Coefficients {
             weight: if pdf > 0.0 { k / pdf } else { 0.0 },
             fluorescent: true,
         }
-    }
-
-    /// The emission-spectrum draw of a light-side fluorescent collision (for the bidirectional
-    /// tracers): (λo, density).
-    #[inline]
-    pub fn sample_out_wavelength(&self, u: f32) -> Option<(f32, f32)> {
-        self.fluorophore.as_ref().map(|f| f.e_dist.sample(u))
     }
 }
 

@@ -111,25 +111,9 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         scene.camera_medium != NONE || scene.shapes.iter().any(|s| s.interface.is_some());
     if scene.has_media {
         media::check_nesting(&scene)?;
-        media::check_usage(&scene)?;
     }
-    for (name, m) in scene.medium_names.iter().zip(&scene.media) {
-        let used = scene.camera_medium != NONE
-            && scene.medium_names[scene.camera_medium as usize] == *name
-            || scene.shapes.iter().any(|s| {
-                s.interface.is_some_and(|i| {
-                    [i.interior, i.exterior]
-                        .iter()
-                        .any(|&k| k != NONE && scene.medium_names[k as usize] == *name)
-                })
-            });
-        if !used {
-            scene.warnings.push(format!(
-                "media.{name} is never used: no shape has it as `interior` or `exterior`"
-            ));
-        }
-        let _ = m;
-    }
+    let unused = media::check_usage(&scene)?;
+    scene.warnings.extend(unused);
     Ok(scene)
 }
 

@@ -272,8 +272,8 @@ pub fn interface(
 }
 
 /// Check which media are used: an error for a medium that is only ever an `exterior` (it can
-/// never be entered).
-pub fn check_usage(scene: &Scene) -> Result<(), InputError> {
+/// never be entered); returns a warning for each medium nobody names.
+pub fn check_usage(scene: &Scene) -> Result<Vec<String>, InputError> {
     let n = scene.media.len();
     let mut interior = vec![false; n];
     let mut exterior_of: Vec<Option<usize>> = vec![None; n];
@@ -290,7 +290,13 @@ pub fn check_usage(scene: &Scene) -> Result<(), InputError> {
     if scene.camera_medium != NONE {
         interior[scene.camera_medium as usize] = true;
     }
+    let mut warnings = Vec::new();
     for (m, name) in scene.medium_names.iter().enumerate() {
+        if !interior[m] && exterior_of[m].is_none() {
+            warnings.push(format!(
+                "media.{name} is never used: no shape has it as `interior` or `exterior`"
+            ));
+        }
         if let Some(si) = exterior_of[m].filter(|_| !interior[m]) {
             let shape = &scene.shapes[si].name;
             return Err(InputError::new(
@@ -303,7 +309,7 @@ pub fn check_usage(scene: &Scene) -> Result<(), InputError> {
             ));
         }
     }
-    Ok(())
+    Ok(warnings)
 }
 
 /// Follow probe rays from the camera through every surface and check that each interface a ray

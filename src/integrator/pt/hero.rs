@@ -30,7 +30,7 @@ impl PtHero {
             );
         }
         Ok(PtHero {
-            walk: Walk::new("pt-hero", scene, o, o.lanes as usize)?,
+            walk: Walk::new(scene, o, o.lanes as usize),
         })
     }
 }

@@ -14,7 +14,7 @@ pub struct PtMono {
 impl PtMono {
     pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
         Ok(PtMono {
-            walk: Walk::new("pt-mono", scene, o, 1)?,
+            walk: Walk::new(scene, o, 1),
         })
     }
 }

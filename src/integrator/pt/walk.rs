@@ -43,15 +43,9 @@ pub struct Walk {
 }
 
 impl Walk {
-    /// A walk carrying `lanes` wavelengths; `name` is the integrator's, for messages.
-    pub fn new(
-        name: &str,
-        scene: &Scene,
-        o: &IntegratorOptions,
-        lanes: usize,
-    ) -> Result<Self, String> {
-        let _ = name;
-        Ok(Walk {
+    /// A walk carrying `lanes` wavelengths.
+    pub fn new(scene: &Scene, o: &IntegratorOptions, lanes: usize) -> Self {
+        Walk {
             max_depth: o.max_depth,
             lanes,
             camera_wavelengths: o.camera_wavelengths,
@@ -59,7 +53,7 @@ impl Walk {
             mis: o.mis,
             rr_depth: o.rr_depth,
             tracking: o.tracking,
-        })
+        }
     }
 
     /// One camera path through film position (x, y) carrying `self.lanes` wavelengths in `L`.
