@@ -38,6 +38,9 @@ experiments=(
   media-tracking-scattering
   media-absorption-sweep
   media-emission-width
+  media-integrators-walls-fog
+  media-integrators-divider
+  media-integrators-cube
 )
 
 failed=()

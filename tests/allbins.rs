@@ -294,17 +294,6 @@ fn rank_one_operator_matches_bin_averaged_kernel() {
     assert!(checked >= 4);
 }
 
-#[test]
-fn refuses_wavelength_dependent_scenes_naming_the_feature() {
-    let mut scene = load("fluorescent-walls");
-    assert!(BdptAllbins::new(&scene, &IntegratorOptions::default()).is_ok());
-    scene.has_media = true;
-    let Err(e) = BdptAllbins::new(&scene, &IntegratorOptions::default()) else {
-        panic!("a scene with media must be refused");
-    };
-    assert!(e.contains("participating media"), "{e}");
-}
-
 /// The power heuristic (`mis: power`) changes only the weights: same image as balance.
 #[test]
 fn power_heuristic_agrees_with_balance() {
@@ -330,29 +319,6 @@ fn power_heuristic_agrees_with_balance() {
     );
     eprintln!("balance {b:?} power {p:?}");
     assert_close(p, b, 0.02);
-}
-
-/// The integrators that need wavelength-independent directions refuse a scene with participating
-/// media through `render()`, naming the feature. No scene file can express media yet, so the
-/// flag is set by hand.
-#[test]
-fn bdpt_integrators_refuse_participating_media() {
-    let mut scene = small(load("cornell-box"), 8);
-    scene.has_media = true;
-    let settings = RenderSettings {
-        spp: 1,
-        ..Default::default()
-    };
-    for kind in [
-        IntegratorKind::BdptForward,
-        IntegratorKind::BdptBackward,
-        IntegratorKind::BdptAllbins,
-    ] {
-        match render(&scene, kind, &IntegratorOptions::default(), &settings, None) {
-            Ok(_) => panic!("{} rendered a scene with participating media", kind.name()),
-            Err(e) => assert!(e.contains("participating media"), "{}: {e}", kind.name()),
-        }
-    }
 }
 
 /// The strategy images of bdpt-allbins (bdpt's `s{s}_t{t}` names; splats at their film position)

@@ -260,15 +260,15 @@ fn mis_weights_sum_to_one() {
                 for i in 0..12000 {
                     let (x, y) = ((i % 32) as f32 * 8.0, (i / 32 % 32) as f32 * 8.0);
                     b.trace_subpaths(&scene, x, y, &mut sampler, &mut scratch, &mut stats);
-                    let (cam, light) = (scratch.camera().to_vec(), scratch.light().to_vec());
-                    for s in 1..=cam.len() {
-                        for t in 0..=light.len() {
+                    let (nc, nl) = (scratch.camera().len(), scratch.light().len());
+                    for s in 1..=nc {
+                        for t in 0..=nl {
                             let k = s + t;
                             if !(2..=8).contains(&k) || (t == 0 && s < 2) {
                                 continue;
                             }
                             let Some(p) =
-                                connect_for_test(&b, &scene, &cam, &light, s, t, &mut sampler)
+                                connect_for_test(&b, &scene, &scratch, s, t, &mut sampler)
                             else {
                                 continue;
                             };

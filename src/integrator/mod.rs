@@ -56,14 +56,6 @@ impl IntegratorKind {
     }
 }
 
-/// The message of an integrator that does not handle participating media yet.
-pub fn media_not_supported(name: &str) -> String {
-    format!(
-        "{name} does not support participating media yet; render scenes with media with \
-         pt-mono or pt-hero"
-    )
-}
-
 /// MIS heuristic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

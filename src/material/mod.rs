@@ -130,40 +130,11 @@ pub trait Bbrrdf {
             PathSide::Camera => self.fluorescence_probability_camera(l),
         }
     }
-}
-
-/// A material of the scene (enum dispatch keeps the hot path free of virtual calls).
-#[derive(Clone, Debug)]
-pub enum Material {
-    Lambert(Lambert),
-    Fluorescent(FluorescentDiffuse),
-    Reradiation(Reradiation),
-}
-
-macro_rules! dispatch {
-    ($self:ident, $m:ident => $e:expr) => {
-        match $self {
-            Material::Lambert($m) => $e,
-            Material::Fluorescent($m) => $e,
-            Material::Reradiation($m) => $e,
-        }
-    };
-}
-
-/// The largest f32 below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-
-impl Material {
-    /// Whether directional sampling or scattering depends on wavelength (never, for these
-    /// diffuse models). The reset algorithms and the all-bins evaluator require `false`.
-    pub fn wavelength_dependent_directions(&self) -> bool {
-        false
-    }
 
     /// Spectral part of f(λin → λout): the diagonal's coefficient for the δ (non-fluorescent)
     /// event, the kernel for a fluorescent one.
     #[inline]
-    pub fn eval(&self, l_in: f32, l_out: f32, fluorescent: bool) -> f32 {
+    fn eval(&self, l_in: f32, l_out: f32, fluorescent: bool) -> f32 {
         if fluorescent {
             self.kernel(l_in, l_out)
         } else {
@@ -176,13 +147,7 @@ impl Material {
     /// on camera paths) using `u[0]`, then the new wavelength from `u[0]` rescaled and `u[1]`;
     /// otherwise keep `l`, weighed by the diagonal.
     #[inline]
-    pub fn sample(
-        &self,
-        l: f32,
-        u: [f32; 2],
-        side: PathSide,
-        s: ShiftSampling,
-    ) -> WavelengthSample {
+    fn sample(&self, l: f32, u: [f32; 2], side: PathSide, s: ShiftSampling) -> WavelengthSample {
         let p = self.fluorescence_probability(l, side);
         if p > 0.0 && u[0] < p {
             let u0 = (u[0] / p).min(ONE_MINUS_EPSILON);
@@ -220,14 +185,7 @@ impl Material {
     /// Probability (discrete, or density per nm when `fluorescent`) that [`Material::sample`]
     /// chooses `l_new` given `l`.
     #[inline]
-    pub fn pdf(
-        &self,
-        l: f32,
-        l_new: f32,
-        fluorescent: bool,
-        side: PathSide,
-        s: ShiftSampling,
-    ) -> f32 {
+    fn pdf(&self, l: f32, l_new: f32, fluorescent: bool, side: PathSide, s: ShiftSampling) -> f32 {
         let p = self.fluorescence_probability(l, side);
         if !fluorescent {
             return 1.0 - p;
@@ -236,6 +194,35 @@ impl Material {
             WavelengthSampling::Importance => self.shift_density(l, l_new, side),
             WavelengthSampling::Uniform => s.domain.uniform_pdf(l_new),
         }
+    }
+}
+
+/// A material of the scene (enum dispatch keeps the hot path free of virtual calls).
+#[derive(Clone, Debug)]
+pub enum Material {
+    Lambert(Lambert),
+    Fluorescent(FluorescentDiffuse),
+    Reradiation(Reradiation),
+}
+
+macro_rules! dispatch {
+    ($self:ident, $m:ident => $e:expr) => {
+        match $self {
+            Material::Lambert($m) => $e,
+            Material::Fluorescent($m) => $e,
+            Material::Reradiation($m) => $e,
+        }
+    };
+}
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+impl Material {
+    /// Whether directional sampling or scattering depends on wavelength (never, for these
+    /// diffuse models). The reset algorithms and the all-bins evaluator require `false`.
+    pub fn wavelength_dependent_directions(&self) -> bool {
+        false
     }
 
     /// The diagonal (wavelength-preserving) coefficient at every lane.

@@ -31,7 +31,10 @@ pub struct Fluorophore {
     pub phi: f32,
     /// ∫ a dλ over the domain.
     pub a_integral: f32,
-    a_dist: Distribution1D,
+    /// λ ∝ a (camera side: the incident wavelength of an in-shift).
+    pub a_dist: Distribution1D,
+    /// λ ∝ e (light side: the emitted wavelength of an out-shift).
+    pub e_dist: Distribution1D,
 }
 
 impl Fluorophore {
@@ -40,6 +43,7 @@ impl Fluorophore {
         let a_integral = a.integral(domain.min, domain.max) as f32;
         Fluorophore {
             a_dist: Distribution1D::from_spectrum(&a, domain, 1.0),
+            e_dist: Distribution1D::from_spectrum(&e, domain, 1.0),
             a,
             c,
             e,
@@ -73,7 +77,8 @@ pub struct CollisionCoefficients<L> {
     pub sigma_s: L,
     /// σ̂t: fluorescence-aware extinction (eq. 3).
     pub hat_t: L,
-    /// σ̂s: fluorescence-aware collision coefficient, camera side (column sum).
+    /// σ̂s: fluorescence-aware collision coefficient: the column sum on the camera side, the
+    /// row sum on the light side (see [`Coefficients::at_side`]).
     pub hat_s: L,
 }
 
@@ -127,6 +132,36 @@ impl Coefficients {
             hat_t,
             hat_s,
         }
+    }
+
+    /// The coefficients seen by a path of the given side: camera paths gather what scatters
+    /// *into* λ (σ̂s is the column sum, [`Coefficients::at`]); light paths carry what scatters
+    /// *out of* λ into any wavelength (σ̂s is the row sum σs + c·Φ·a(λ)). σ̂t is the same for both:
+    /// it is the extinction of light at λ and drives the transmittance (Mojzík eq. 3).
+    #[inline]
+    pub fn at_side<L: Lanes>(&self, n: usize, lambda: L, light: bool) -> CollisionCoefficients<L> {
+        let mut c = self.at(n, lambda);
+        if light {
+            c.hat_s = c.sigma_s;
+            if let Some(f) = &self.fluorophore {
+                c.hat_s += f.a.eval_lanes(n, lambda) * (f.c * f.phi);
+            }
+        }
+        c
+    }
+
+    /// The largest σ̂t, camera-side σ̂s and light-side σ̂s over `domain` (sampled every 1 nm and
+    /// at the ends, with 1 % headroom): the wavelength-independent tracking coefficient of the
+    /// all-bins evaluator.
+    pub fn majorant_over(&self, domain: Domain) -> f32 {
+        let steps = (domain.width().ceil() as usize).max(1);
+        let mut m = 0.0f32;
+        for i in 0..=steps {
+            let l = (domain.min + i as f32).min(domain.max);
+            let c = self.at(1, l);
+            m = m.max(c.hat_t).max(c.hat_s).max(self.hat_s_light(l));
+        }
+        m * 1.01
     }
 
     /// σ̂s on the light side (row sum): σs + c·Φ·a(λ).

@@ -10,7 +10,7 @@ pub mod grid;
 pub mod tracking;
 
 pub use coefficients::{Coefficients, CollisionCoefficients, Fluorophore, InShift};
-pub use tracking::{Flight, FreeFlight, Tracking};
+pub use tracking::{Flight, FreeFlight, MixtureFlight, Tracking};
 
 /// A medium: its coefficients per unit density, its phase function and its density.
 #[derive(Clone, Debug)]

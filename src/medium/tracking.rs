@@ -45,6 +45,10 @@ pub struct FreeFlight {
     pub b: f32,
 }
 
+/// Below this optical depth b·d the density is uniform over the stretch to f32 precision
+/// (φ(x) = 1 − x/2 + …).
+const TINY: f32 = 1e-7;
+
 /// 1 − e^(−x) for x ≥ 0, accurate as x → 0, given e^(−x).
 #[inline(always)]
 fn one_minus_exp(x: f32, e: f32) -> f32 {
@@ -96,12 +100,15 @@ impl FreeFlight {
         if !(a > 0.0) {
             return (pass, 0.0);
         }
-        let coll = if x < 0.03 {
-            a * d * (one_minus_exp(x, pass) / x.max(f32::MIN_POSITIVE)).min(1.0)
+        let coll = if x < TINY {
+            // φ(x) = 1 to f32 precision; below f32::MIN_POSITIVE x is subnormal and a ratio
+            // of subnormals would lose every digit (Gaussian tails of σ̂t reach 1e-44).
+            a * d
+        } else if x < 0.03 {
+            a * d * (one_minus_exp(x, pass) / x).min(1.0)
         } else {
             a / b * (1.0 - pass)
         };
-        let coll = if x == 0.0 { a * d } else { coll };
         if coll.is_finite() {
             (pass, coll)
         } else {
@@ -131,7 +138,9 @@ impl FreeFlight {
             -(-zeta).ln_1p() / b
         } else {
             let x = b * d;
-            let s = if x > 0.0 {
+            // Below TINY the conditional density is uniform to f32 precision (and the formula
+            // would quantise t in subnormal arithmetic).
+            let s = if x >= TINY {
                 -(-zeta * one_minus_exp(x, pass)).ln_1p() / x
             } else {
                 zeta
@@ -167,6 +176,52 @@ impl FreeFlight {
     }
 }
 
+/// A wavelength-independent free-flight density for tracers that carry every wavelength bin at
+/// once: the even mixture of exponentials at rates `lo` and `hi`,
+///
+/// p(t) = ½·(lo·e^(−lo·t) + hi·e^(−hi·t)),   P(pass d) = ½·(e^(−lo·d) + e^(−hi·d)).
+///
+/// With `lo` ≤ every bin's σ̂t and `hi` ≥ every bin's σ̂t and σ̂s, each bin's weight T/p is at
+/// most 2 when passing and 2/lo at a collision, and no bin's collisions go unsampled; a single
+/// rate would weigh a clear bin by e^((hi − σ̂t)·d) when passing (docs/design.md §3.5).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MixtureFlight {
+    pub lo: f32,
+    pub hi: f32,
+}
+
+impl MixtureFlight {
+    /// The flight between the smallest σ̂t and the largest of σ̂t and σ̂s of a medium (`lo` at
+    /// least 1/1000 of `hi`, so that a clear band still collides now and then).
+    pub fn new(min_hat_t: f32, max_rate: f32) -> Self {
+        let hi = max_rate.max(0.0);
+        MixtureFlight {
+            lo: min_hat_t.clamp(1e-3 * hi, hi),
+            hi,
+        }
+    }
+
+    /// A collision distance from two uniform numbers (the rate by `u[0]`).
+    #[inline]
+    pub fn sample(&self, u: [f32; 2]) -> f32 {
+        let c = if u[0] < 0.5 { self.lo } else { self.hi };
+        -(1.0 - u[1]).ln() / c
+    }
+
+    #[inline]
+    pub fn pdf_collision(&self, t: f32) -> f32 {
+        0.5 * (self.lo * (-self.lo * t).exp() + self.hi * (-self.hi * t).exp())
+    }
+
+    #[inline]
+    pub fn pdf_pass(&self, d: f32) -> f32 {
+        if d.is_infinite() {
+            return 0.0;
+        }
+        0.5 * ((-self.lo * d).exp() + (-self.hi * d).exp())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +249,8 @@ mod tests {
             (0.0, 2.0),
             (2.0, 0.0),
             (1e-30, 5.0),
+            (1e-40, 5.0),
+            (4.6e-44, 2.0),
         ] {
             for mode in MODES {
                 for d in [0.01, 1.0, 4.0] {
@@ -207,7 +264,8 @@ mod tests {
     #[test]
     fn stable_in_the_limits() {
         // σ̂t → 0: uniform over [0, d]; collision probability a·d / (1 + a·d).
-        for b in [0.0f32, 1e-30, 1e-12] {
+        // Subnormal σ̂t (4.6e-44: a Gaussian absorption 240 nm from its peak) included.
+        for b in [0.0f32, 1e-30, 1e-12, 1e-40, 4.6e-44] {
             let f = FreeFlight { a: 2.0, b };
             assert!((f.pdf_pass(3.0) - 1.0 / 7.0).abs() < 1e-6, "b {b}");
             assert!((f.pdf_collision(0.1, 3.0) - 2.0 / 7.0).abs() < 1e-6);
@@ -328,11 +386,12 @@ mod tests {
     fn samples_follow_the_density_chi_square() {
         let cases = [
             (1.0, 1.0, 2.0),
-            (0.3, 2.0, 3.0),   // fluorescent: σ̂s > σ̂t
-            (2.0, 0.2, 1.5),   // absorbing: mostly passes
-            (0.0, 1.0, 2.0),   // clear: uniform collisions
-            (1e-30, 0.5, 4.0), // almost clear
-            (4.0, 4.0, 50.0),  // truncated far away: almost pure exponential
+            (0.3, 2.0, 3.0),     // fluorescent: σ̂s > σ̂t
+            (2.0, 0.2, 1.5),     // absorbing: mostly passes
+            (0.0, 1.0, 2.0),     // clear: uniform collisions
+            (1e-30, 0.5, 4.0),   // almost clear
+            (4.6e-44, 0.5, 2.0), // subnormal σ̂t
+            (4.0, 4.0, 50.0),    // truncated far away: almost pure exponential
         ];
         for (k, (t, s, d)) in cases.into_iter().enumerate() {
             for mode in MODES {
@@ -345,5 +404,58 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The two-rate mixture: its density integrates to one with its pass probability, and its
+    /// samples follow it (χ² on 40 cells of the truncated range, the rest lumped).
+    #[test]
+    fn mixture_flight_is_a_density_and_is_sampled_by_it() {
+        let f = MixtureFlight::new(0.05, 3.0);
+        let d = 2.0f32;
+        let k = 20000;
+        let h = d as f64 / k as f64;
+        let mass: f64 = (0..k)
+            .map(|i| f.pdf_collision(((i as f64 + 0.5) * h) as f32) as f64 * h)
+            .sum::<f64>()
+            + f.pdf_pass(d) as f64;
+        assert!((mass - 1.0).abs() < 1e-4, "{mass}");
+        let mut rng = Pcg32::seed_from_u64(9);
+        let n = 200_000;
+        let cells = 40;
+        let mut hist = vec![0u32; cells + 1];
+        for _ in 0..n {
+            let t = f.sample([rng.random(), rng.random()]);
+            let c = if t < d {
+                (t / d * cells as f32) as usize
+            } else {
+                cells
+            };
+            hist[c.min(cells)] += 1;
+        }
+        let mut chi2 = 0.0;
+        for (c, &count) in hist.iter().enumerate() {
+            let p = if c == cells {
+                f.pdf_pass(d) as f64
+            } else {
+                let (a, b) = (
+                    c as f64 * d as f64 / cells as f64,
+                    (c + 1) as f64 * d as f64 / cells as f64,
+                );
+                let m = 64;
+                (0..m)
+                    .map(|j| {
+                        f.pdf_collision((a + (j as f64 + 0.5) * (b - a) / m as f64) as f32) as f64
+                    })
+                    .sum::<f64>()
+                    * (b - a)
+                    / m as f64
+            };
+            let e = p * n as f64;
+            chi2 += (count as f64 - e).powi(2) / e;
+        }
+        // 40 degrees of freedom: mean 40, sd 9; allow 5 sd.
+        assert!(chi2 < 40.0 + 5.0 * 80f64.sqrt(), "χ² = {chi2}");
+        assert_eq!(f.pdf_pass(f32::INFINITY), 0.0);
+        assert_eq!(MixtureFlight::new(0.0, 2.0).lo, 2e-3);
     }
 }

@@ -85,6 +85,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         .map(|t| t.normal_raw().normalize())
         .collect();
     let has_fluorescence = materials.iter().any(|m| m.is_fluorescent());
+    let light_shapes = b.light_shapes;
     let mut scene = Scene {
         file: path.to_path_buf(),
         domain,
@@ -105,12 +106,14 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         medium_names,
         camera_medium,
         has_media: false,
+        light_media: Vec::new(),
         warnings,
     };
     scene.has_media =
         scene.camera_medium != NONE || scene.shapes.iter().any(|s| s.interface.is_some());
     if scene.has_media {
         media::check_nesting(&scene)?;
+        scene.light_media = media::light_media(&scene, &light_shapes);
     }
     let unused = media::check_usage(&scene)?;
     scene.warnings.extend(unused);
@@ -278,6 +281,8 @@ struct Builder {
     sphere_info: Vec<PrimInfo>,
     shapes: Vec<ShapeInfo>,
     lights: Vec<AreaLight>,
+    /// The shape of each light.
+    light_shapes: Vec<u32>,
 }
 
 /// An error at field `field` of the shape at JSON path `base` (the shape itself if empty).
@@ -365,6 +370,7 @@ impl Builder {
             };
             let light = area_light(ctx, &base, name, e, shape, area)?;
             self.lights.push(light);
+            self.light_shapes.push(shape_id);
         }
         if let Some(sp) = sphere {
             self.spheres.push(sp);

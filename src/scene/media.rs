@@ -370,3 +370,49 @@ pub fn check_nesting(scene: &Scene) -> Result<(), InputError> {
     }
     Ok(())
 }
+
+/// The media on the front and back side of each light: its shape's interface, or, for a shape
+/// without one, the medium around a point of the light, found by walking a ray from the camera
+/// to it through the interfaces on the way.
+pub fn light_media(scene: &Scene, light_shapes: &[u32]) -> Vec<[u32; 2]> {
+    light_shapes
+        .iter()
+        .enumerate()
+        .map(|(li, &si)| {
+            if let Some(i) = scene.shapes[si as usize].interface {
+                return [i.exterior, i.interior];
+            }
+            let p = scene.lights[li].sample_point(0.5, [0.5, 0.5]).p;
+            let m = medium_at(scene, p);
+            [m, m]
+        })
+        .collect()
+}
+
+/// The medium at point `p`, by following the interfaces a ray from the camera crosses on its
+/// way to `p`.
+pub fn medium_at(scene: &Scene, p: glam::Vec3) -> u32 {
+    let o = scene.camera.origin;
+    let mut current = scene.camera_medium;
+    let to = p - o;
+    let dist = to.length();
+    if !(dist > 0.0) {
+        return current;
+    }
+    let mut ray = crate::geometry::Ray::new(o, to / dist);
+    let mut travelled = 0.0f32;
+    for _ in 0..256 {
+        let Some(it) = scene.intersect(&ray, dist - travelled - 1e-4 * dist) else {
+            break;
+        };
+        if let Some(i) = scene.interface(&it) {
+            current = i.towards(it.n, ray.d);
+        }
+        ray = spawn_ray(it.p, it.n, ray.d);
+        travelled = (ray.o - o).length();
+        if travelled >= dist {
+            break;
+        }
+    }
+    current
+}

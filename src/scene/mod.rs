@@ -77,6 +77,9 @@ pub struct Scene {
     pub camera_medium: u32,
     /// True when a shape or the camera is in a medium.
     pub has_media: bool,
+    /// Per light, the media on the front (normal) and back side of its surface (filled when the
+    /// scene has media; light paths start in them).
+    pub light_media: Vec<[u32; 2]>,
     pub warnings: Vec<String>,
 }
 
@@ -158,6 +161,12 @@ impl Scene {
         }
     }
 
+    /// The media on the front and back side of light `li` (vacuum when unknown).
+    #[inline]
+    pub fn light_media(&self, li: usize) -> [u32; 2] {
+        self.light_media.get(li).copied().unwrap_or([NONE; 2])
+    }
+
     /// The medium `id` ([`NONE`]: vacuum).
     #[inline]
     pub fn medium(&self, id: u32) -> Option<&Medium> {
@@ -176,9 +185,8 @@ impl Scene {
     /// Name of the first feature that makes directional sampling depend on wavelength, if any
     /// (the reset algorithms and the all-bins evaluator refuse such scenes).
     pub fn wavelength_dependent_feature(&self) -> Option<String> {
-        if self.has_media {
-            return Some("participating media".into());
-        }
+        // Media qualify: phase functions do not depend on wavelength, and the free flights, which
+        // do, are re-weighted when a reset changes a segment's wavelength (bdpt/media.rs).
         self.materials
             .iter()
             .zip(&self.material_names)

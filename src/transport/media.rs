@@ -28,7 +28,10 @@ pub enum Travel<L> {
 }
 
 /// Sample a free flight for lanes `lambda` (the first `n`) along `ray` in `medium` up to the
-/// surface at `t_max` (∞ if none); `u` gives uniform numbers.
+/// surface at `t_max` (∞ if none), for a camera path (`light` false: σ̂s is the column sum) or a
+/// light path (`light` true: the row sum; [`crate::medium::Coefficients::at_side`]); `u` gives
+/// uniform numbers.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn travel<L: Lanes>(
     medium: &Medium,
@@ -37,11 +40,12 @@ pub fn travel<L: Lanes>(
     lambda: L,
     n: usize,
     mode: Tracking,
+    light: bool,
     u: &mut impl FnMut() -> f32,
 ) -> Travel<L> {
     match &medium.density {
-        Density::Homogeneous => travel_homogeneous(medium, t_max, lambda, n, mode, u()),
-        Density::Grid(g) => travel_grid(medium, g, ray, t_max, lambda, n, mode, u),
+        Density::Homogeneous => travel_homogeneous(medium, t_max, lambda, n, mode, light, u()),
+        Density::Grid(g) => travel_grid(medium, g, ray, t_max, lambda, n, mode, light, u),
     }
 }
 
@@ -72,9 +76,10 @@ fn travel_grid<L: Lanes>(
     lambda: L,
     n: usize,
     mode: Tracking,
+    light: bool,
     u: &mut impl FnMut() -> f32,
 ) -> Travel<L> {
-    let c = medium.coefficients.at(n, lambda);
+    let c = medium.coefficients.at_side(n, lambda, light);
     let c_max = (0..n)
         .map(|j| majorant_coefficient(mode, c.hat_t.lane(j), c.hat_s.lane(j)))
         .fold(0.0f32, f32::max);
@@ -112,6 +117,7 @@ fn travel_grid<L: Lanes>(
 }
 
 /// Homogeneous medium: one analytic free flight (Mojzík eq. 6 and its variants).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn travel_homogeneous<L: Lanes>(
     medium: &Medium,
@@ -119,6 +125,7 @@ fn travel_homogeneous<L: Lanes>(
     lambda: L,
     n: usize,
     mode: Tracking,
+    light: bool,
     u: f32,
 ) -> Travel<L> {
     if let Some((hat_t, hat_s)) = medium.coefficients.grey {
@@ -138,7 +145,7 @@ fn travel_homogeneous<L: Lanes>(
             },
         };
     }
-    let c = medium.coefficients.at(n, lambda);
+    let c = medium.coefficients.at_side(n, lambda, light);
     let flight = |j: usize| FreeFlight::new(mode, c.hat_t.lane(j), c.hat_s.lane(j));
     match flight(0).sample(d, u) {
         Flight::Collision { t, pdf } => {
@@ -235,11 +242,30 @@ fn ratio_tracking<L: Lanes>(
     tr
 }
 
+/// exp(−δ·∫ρ) along `ray` up to `len` for a coefficient `delta` per unit density of either sign,
+/// by ratio tracking against the majorant |δ|·ρ_max: each tentative collision multiplies by
+/// 1 − δ·ρ/μ ∈ [0, 2] (the estimator is unbiased for any real δ).
+#[inline]
+pub fn signed_ratio_tracking(
+    g: &GridDensity,
+    ray: &Ray,
+    len: f32,
+    delta: f32,
+    u: &mut impl FnMut() -> f32,
+) -> f32 {
+    let mut tr = 1.0f32;
+    tentative_collisions(g, ray, len, delta.abs(), u, |_, rho, mu, _| {
+        tr *= 1.0 - delta * rho / mu;
+        tr != 0.0
+    });
+    tr
+}
+
 /// The tentative collisions of delta and ratio tracking along `ray` up to `t_max` in a grid:
 /// exponential steps against the majorant μ = (max density of the DDA cell) × `c_max`; `visit`
 /// gets (t, density, μ, a uniform number for its decision) and returns false to stop.
 #[inline(always)]
-fn tentative_collisions(
+pub fn tentative_collisions(
     g: &GridDensity,
     ray: &Ray,
     t_max: f32,
@@ -269,22 +295,52 @@ fn tentative_collisions(
 /// Transmittance from `a` (in medium `medium`) to `b` at every lane, through index-matched
 /// boundaries; `None` when a surface blocks the segment. Also returns the product of the
 /// lanes' pass probabilities (the pdf of reaching `b` by free-flight sampling, per lane, for the
-/// MIS weights of next-event estimation). Each shadow ray is counted in `rays`.
+/// MIS weights of next-event estimation). Each shadow ray is counted in `rays`; with `log`, the
+/// stretches of medium crossed are appended to it (for the pdfs of a BDPT connection).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn transmittance_lanes<L: Lanes>(
     scene: &Scene,
     a: Endpoint,
     b: Endpoint,
-    mut medium: u32,
+    medium: u32,
     lambda: L,
     n: usize,
     mode: Tracking,
     rays: &mut u64,
     u: &mut impl FnMut() -> f32,
+    mut log: Option<&mut Vec<Stretch>>,
 ) -> Option<(L, L)> {
     let mut tr = L::splat_n(n, 1.0);
     let mut pass = L::splat_n(n, 1.0);
+    let clear = cross_segment(scene, a, b, medium, rays, |id, m, ray, len| {
+        let (t, q) = stretch(m, ray, len, lambda, n, mode, u);
+        tr *= t;
+        pass *= q;
+        if let Some(log) = log.as_deref_mut() {
+            log.push(Stretch {
+                medium: id,
+                o: ray.o,
+                d: ray.d,
+                len,
+            });
+        }
+    });
+    clear.then_some((tr, pass))
+}
+
+/// Follow the segment from `a` (in medium `medium`) to `b` through index-matched boundaries,
+/// calling `stretch(id, medium, ray, len)` for each stretch of medium on the way; false when a
+/// surface blocks it. Each ray cast is counted in `rays`.
+#[inline]
+pub fn cross_segment(
+    scene: &Scene,
+    a: Endpoint,
+    b: Endpoint,
+    mut medium: u32,
+    rays: &mut u64,
+    mut stretch: impl FnMut(u32, &Medium, &Ray, f32),
+) -> bool {
     let mut from = a;
     for _ in 0..MAX_CROSSINGS {
         *rays += 1;
@@ -292,20 +348,40 @@ pub fn transmittance_lanes<L: Lanes>(
         let hit = scene.intersect(&ray, tmax);
         let len = hit.map_or(tmax, |h| h.t);
         if let Some(m) = scene.medium(medium) {
-            let (t, q) = stretch(m, &ray, len, lambda, n, mode, u);
-            tr *= t;
-            pass *= q;
+            stretch(medium, m, &ray, len);
         }
         let Some(it) = hit else {
-            return Some((tr, pass));
+            return true;
         };
         if it.material != NONE || it.light != NONE {
-            return None;
+            return false;
         }
         medium = scene.medium_after(&it, ray.d, medium);
         from = Endpoint { p: it.p, n: it.n };
     }
-    None
+    false
+}
+
+/// The part of a segment inside one medium: it starts at `o` and runs `len` along unit `d`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Stretch {
+    pub medium: u32,
+    pub o: Vec3,
+    pub d: Vec3,
+    pub len: f32,
+}
+
+impl Stretch {
+    /// The same stretch walked the other way.
+    #[inline]
+    pub fn reversed(&self) -> Stretch {
+        Stretch {
+            medium: self.medium,
+            o: self.o + self.d * self.len,
+            d: -self.d,
+            len: self.len,
+        }
+    }
 }
 
 /// The most index-matched boundaries a ray crosses before the path gives up.

@@ -14,13 +14,17 @@ use glam::Vec3;
 /// What generated a vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum VertexKind {
+    // In this order, the sets the hot paths test (Camera | Medium: no normal; Medium | Surface:
+    // scatters) are ranges of the discriminant.
     /// The pinhole x0; `n` is the viewing direction.
     Camera,
-    /// A point sampled on an emitter (first light sub-path vertex or NEE sample).
-    Light,
+    /// A collision in a medium; `material` holds the medium's id and `n` is zero.
+    Medium,
     /// A surface hit (it may also be an emitter: `light != NONE`).
     #[default]
     Surface,
+    /// A point sampled on an emitter (first light sub-path vertex or NEE sample).
+    Light,
 }
 
 /// A path vertex with the integrator's payload `data`.
@@ -100,18 +104,49 @@ impl<P> Vertex<P> {
         self.light != NONE
     }
 
-    /// The directional lobe of a scattering vertex (every surface material is diffuse).
+    /// A collision in medium `medium` at `p`, with its forward area pdf.
     #[inline]
-    pub fn scattering(&self) -> Scattering {
-        Scattering::Diffuse { n: self.n }
+    pub fn medium(p: Vec3, medium: u32, pdf_fwd: f32) -> Self
+    where
+        P: Default,
+    {
+        Vertex {
+            p,
+            n: Vec3::ZERO,
+            kind: VertexKind::Medium,
+            shift: false,
+            material: medium,
+            light: NONE,
+            pdf_fwd,
+            pdf_rev: 0.0,
+            data: P::default(),
+        }
+    }
+
+    /// True for a vertex that scatters: a surface with a material, or a medium collision.
+    #[inline]
+    pub fn scatters(&self) -> bool {
+        self.material != NONE && matches!(self.kind, VertexKind::Surface | VertexKind::Medium)
+    }
+
+    /// The directional lobe of a scattering vertex: diffuse on surfaces (every material is),
+    /// the medium's Henyey–Greenstein phase function in a medium.
+    #[inline]
+    pub fn scattering(&self, scene: &Scene) -> Scattering {
+        match self.kind {
+            VertexKind::Medium => Scattering::HenyeyGreenstein {
+                g: scene.medium(self.material).map_or(0.0, |m| m.g),
+            },
+            _ => Scattering::Diffuse { n: self.n },
+        }
     }
 
     /// The end of a shadow segment at this vertex: surfaces are offset along their normal, the
-    /// pinhole is not.
+    /// pinhole and medium collisions are not (their `n` is not a surface normal).
     #[inline]
     pub fn endpoint(&self) -> Endpoint {
         match self.kind {
-            VertexKind::Camera => Endpoint {
+            VertexKind::Camera | VertexKind::Medium => Endpoint {
                 p: self.p,
                 n: Vec3::ZERO,
             },
@@ -122,11 +157,12 @@ impl<P> Vertex<P> {
         }
     }
 
-    /// |cos θ| of direction `w` at this vertex for measure conversions (1 at the pinhole).
+    /// |cos θ| of direction `w` at this vertex for measure conversions (1 at the pinhole and in
+    /// a medium, where the area measure is the volume measure).
     #[inline]
     pub fn abs_cos(&self, w: Vec3) -> f32 {
         match self.kind {
-            VertexKind::Camera => 1.0,
+            VertexKind::Camera | VertexKind::Medium => 1.0,
             _ => self.n.dot(w).abs(),
         }
     }
@@ -146,12 +182,13 @@ impl<P> Vertex<P> {
         pdf_dir * next.abs_cos(w) / d2
     }
 
-    /// Area pdf that a scattering vertex, reached from `prev`, samples `next`.
+    /// Area pdf that a scattering vertex, reached from `prev`, samples `next` (the direction
+    /// only: free-flight pdfs through media are kept per segment, `super::segment`).
     #[inline]
-    pub fn pdf_scatter<Q, R>(&self, prev: &Vertex<Q>, next: &Vertex<R>) -> f32 {
+    pub fn pdf_scatter<Q, R>(&self, scene: &Scene, prev: &Vertex<Q>, next: &Vertex<R>) -> f32 {
         let (wi, d2) = self.towards(next);
         let (wo, _) = self.towards(prev);
-        Self::area_pdf(self.scattering().pdf(wo, wi), wi, d2, next)
+        Self::area_pdf(self.scattering(scene).pdf(wo, wi), wi, d2, next)
     }
 
     /// Area pdf that the light sub-path's emission sampling leaves this emitter point towards
@@ -185,8 +222,8 @@ impl<P> Vertex<P> {
                 Self::area_pdf(scene.camera.pdf_dir(cos), w, d2, next)
             }
             VertexKind::Light => self.pdf_emit(scene, next),
-            VertexKind::Surface => match prev {
-                Some(prev) => self.pdf_scatter(prev, next),
+            VertexKind::Surface | VertexKind::Medium => match prev {
+                Some(prev) => self.pdf_scatter(scene, prev, next),
                 None => 0.0,
             },
         }

@@ -3,16 +3,20 @@
 
 use super::mis::{FullPath, ResetMode};
 use super::reset;
-use super::subpath::{Vertex, sample_light_vertex};
+use super::subpath::sample_light_vertex;
 use super::{Bdpt, Scratch};
 use crate::integrator::{SampleSink, Sampler};
-use crate::material::{Bbrrdf, Material, PathSide};
+use crate::material::{Bbrrdf, PathSide, ShiftSampling};
 use crate::scene::{NONE, Scene};
-use crate::transport::transmittance;
+use crate::transport::spectral::with_spectrum;
+use crate::transport::{VertexKind, transmittance};
 
-/// The measurement contribution f_j of the path (eq. 6.2) without visibility, with the pinhole
-/// importance We = 1 / (A cos⁴θ) of the whole film at unit distance (the camera strategies' pixel
-/// sample and the light-tracing splat then both estimate the pixel's average radiance).
+/// The measurement contribution f_j of the path (eq. 6.2) without visibility and without the
+/// transmittance of its segments, with the pinhole importance We = 1 / (A cos⁴θ) of the whole
+/// film at unit distance (the camera strategies' pixel sample and the light-tracing splat then
+/// both estimate the pixel's average radiance). A medium vertex contributes its collision
+/// coefficient per unit density and its phase function (no cosines); its density is part of the
+/// free-flight weight of the segment that sampled it.
 fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     let k = path.k;
     let v = &path.v;
@@ -34,17 +38,15 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     // Each interior vertex: f = f_λ · f_dir, then the segment towards the light.
     for i in 1..=k - 2 {
         let x = &v[i];
-        if x.material == NONE {
-            return 0.0;
-        }
+        let (li, lo, sh) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
         let (wi, d2) = x.towards(&v[i + 1]);
-        let f_dir = x.scattering().eval(-w, wi);
+        let f_l = with_spectrum!(scene, x, m => m.eval(li, lo, sh), else return 0.0);
+        let (f_dir, cos) = (x.scattering(scene).eval(-w, wi), x.abs_cos(wi));
         if f_dir == 0.0 {
             return 0.0;
         }
-        let m: &Material = &scene.materials[x.material as usize];
-        f *= m.eval(path.lambda[i], path.lambda[i - 1], path.shift[i]) as f64 * f_dir as f64;
-        f *= x.abs_cos(wi) as f64 * v[i + 1].abs_cos(wi) as f64 / d2 as f64;
+        f *= f_l as f64 * f_dir as f64;
+        f *= cos as f64 * v[i + 1].abs_cos(wi) as f64 / d2 as f64;
         if f <= 0.0 {
             return 0.0;
         }
@@ -77,23 +79,19 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
         // the connection segment x(s−1) ↔ x_s
         path.pa_fwd[s] = v[s - 1].pdf(scene, s.checked_sub(2).map(|i| &v[i]), &v[s]) as f64;
         path.pa_rev[s - 1] = v[s].pdf(scene, v.get(s + 1), &v[s - 1]) as f64;
-    }
-    // wavelength pdfs of each interior vertex (eqs. 6.6–6.8)
-    for i in 1..=k.saturating_sub(2) {
-        let m: &Material = &scene.materials[path.v[i].material as usize];
-        let (li, lo, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
-        if m.is_fluorescent() {
-            let ws = b.shift;
-            path.pc[i] = m.pdf(lo, li, shifted, PathSide::Camera, ws) as f64;
-            path.big_pc[i] = m.fluorescence_probability_camera(lo) as f64;
-            path.pl[i] = m.pdf(li, lo, shifted, PathSide::Light, ws) as f64;
-            path.big_pl[i] = m.fluorescence_probability_light(li) as f64;
-        } else {
-            path.pc[i] = 1.0;
-            path.big_pc[i] = 0.0;
-            path.pl[i] = 1.0;
-            path.big_pl[i] = 0.0;
+        // One vertex further: a phase function's pdf depends on the other neighbour, which the
+        // connection changed (a diffuse lobe's does not: the stored pdfs stand).
+        if s >= 2 && v[s - 1].kind == VertexKind::Medium {
+            path.pa_rev[s - 2] = v[s - 1].pdf(scene, Some(&v[s]), &v[s - 2]) as f64;
         }
+        if s + 1 < k && v[s].kind == VertexKind::Medium {
+            path.pa_fwd[s + 1] = v[s].pdf(scene, Some(&v[s - 1]), &v[s + 1]) as f64;
+        }
+    }
+    // wavelength pdfs of each interior vertex (eqs. 6.6–6.8; media: transport::spectral)
+    for i in 1..=k.saturating_sub(2) {
+        let x = path.v[i];
+        with_spectrum!(scene, x, m => wavelength_pdfs(path, i, m, b.shift), else continue);
     }
     path.pc0 = scene
         .observer
@@ -103,6 +101,23 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
         path.lambda[k - 2],
         b.light_wavelengths,
     ) as f64;
+}
+
+/// The camera- and light-side wavelength pdfs of interior vertex i and its P_c, P_l.
+#[inline(always)]
+fn wavelength_pdfs(path: &mut FullPath, i: usize, m: &impl Bbrrdf, ws: ShiftSampling) {
+    let (li, lo, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
+    if m.is_fluorescent() {
+        path.pc[i] = m.pdf(lo, li, shifted, PathSide::Camera, ws) as f64;
+        path.big_pc[i] = m.fluorescence_probability_camera(lo) as f64;
+        path.pl[i] = m.pdf(li, lo, shifted, PathSide::Light, ws) as f64;
+        path.big_pl[i] = m.fluorescence_probability_light(li) as f64;
+    } else {
+        path.pc[i] = 1.0;
+        path.big_pc[i] = 0.0;
+        path.pl[i] = 1.0;
+        path.big_pl[i] = 0.0;
+    }
 }
 
 /// Index of the strategy image of (s, t): ordered by k = s + t, then s.
@@ -171,6 +186,11 @@ impl Bdpt {
         if path.v[k - 1].light == NONE {
             return;
         }
+        let media = scene.has_media;
+        if media {
+            let (cam, light) = (&scratch.cam_log, &scratch.light_log);
+            super::media::gather(scene, path, cam, light, s, fresh);
+        }
         self.reset(scene, path, s, t, sampler);
         let xyz_w = scene.observer.xyz_weight(path.lambda[0]);
         if xyz_w == glam::Vec3::ZERO {
@@ -192,27 +212,47 @@ impl Bdpt {
         // transmittance of the connecting segment (shadow rays start on the surface side)
         let mut f = f;
         if t >= 1 {
-            let (a, b) = (path.v[s - 1].endpoint(), path.v[s].endpoint());
             let rays = &mut sink.stats.rays;
-            let tr = if s == 1 {
-                transmittance(scene, b, a, rays)
+            if media {
+                let mode = self.tracking;
+                let Some(tr) = super::media::connection(scene, path, s, mode, rays, sampler) else {
+                    return;
+                };
+                f *= tr as f64;
             } else {
-                transmittance(scene, a, b, rays)
-            };
-            if tr.is_zero() {
-                return;
+                let (a, b) = (path.v[s - 1].endpoint(), path.v[s].endpoint());
+                let tr = if s == 1 {
+                    transmittance(scene, b, a, rays)
+                } else {
+                    transmittance(scene, a, b, rays)
+                };
+                if tr.is_zero() {
+                    return;
+                }
+                f *= tr.at(path.lambda[s - 1]) as f64;
             }
-            f *= tr.at(path.lambda[s - 1]) as f64;
         }
         fill_pdfs(self, scene, path, s, t);
+        // The strategy's own directional and wavelength pdf.
         let p = path.strategy_pdf(s, self.mode);
         if p.is_nan() || p <= 0.0 || !p.is_finite() {
             return;
         }
+        // Media: the sampled free flights' weights, and their pdfs in the MIS weights.
+        let p_mis = if media {
+            f *= super::media::flight_weight(scene, path, s, sampler);
+            super::media::distance_pdfs(scene, path, self.tracking);
+            path.fold_distances();
+            path.strategy_pdf(s, self.mode)
+        } else {
+            p
+        };
         let w = if self.only.is_some() {
             1.0
+        } else if p_mis > 0.0 && p_mis.is_finite() {
+            path.mis_weight(s, p_mis, self.mode, self.mis)
         } else {
-            path.mis_weight(s, p, self.mode, self.mis)
+            0.0
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
         let c = (w * f / p) as f32;
@@ -222,7 +262,20 @@ impl Bdpt {
             }
             return;
         }
-        let xyz = xyz_w * c;
+        self.deliver(s, t, xyz_w * c, splat, sink);
+    }
+
+    /// Add the contribution `xyz` of strategy (s, t) to the pixel, or splat it at `splat` (light
+    /// tracing), and to its strategy image.
+    #[inline]
+    fn deliver(
+        &self,
+        s: usize,
+        t: usize,
+        xyz: glam::Vec3,
+        splat: Option<(f32, f32)>,
+        sink: &mut SampleSink,
+    ) {
         let ok = match splat {
             Some((px, py)) => {
                 let ok = sink.splat(px, py, xyz);
@@ -242,20 +295,19 @@ impl Bdpt {
             }
         };
         if ok {
-            sink.stats.contribution(k - 1);
+            sink.stats.contribution(s + t - 1);
         }
     }
 }
 
-/// Build the full path of strategy (s, t) from given sub-paths (t = 1 uses the light
-/// sub-path's first vertex instead of a fresh one), apply the integrator's reset and
-/// fill all pdfs (test hook: MIS weights of all strategies for one path). Returns `None` when the
-/// path carries no light.
+/// Build the full path of strategy (s, t) from the sub-paths in `scratch` (t = 1 uses the
+/// light sub-path's first vertex instead of a fresh one), apply the integrator's reset and fill
+/// all pdfs, free-flight pdfs included (test hook: MIS weights of all strategies for one path).
+/// Returns `None` when the path carries no light.
 pub fn connect_for_test(
     b: &Bdpt,
     scene: &Scene,
-    cam: &[Vertex],
-    light: &[Vertex],
+    scratch: &Scratch,
     s: usize,
     t: usize,
     sampler: &mut Sampler,
@@ -264,15 +316,27 @@ pub fn connect_for_test(
     let k = s + t;
     let mut path = FullPath::with_capacity(k);
     path.reset(k);
-    path.v.extend_from_slice(&cam[..s]);
-    path.v.extend(light[..t].iter().rev());
+    path.v.extend_from_slice(&scratch.cam[..s]);
+    path.v.extend(scratch.light[..t].iter().rev());
     if path.v[k - 1].light == NONE {
         return None;
+    }
+    if scene.has_media {
+        let (cam, light) = (&scratch.cam_log, &scratch.light_log);
+        super::media::gather(scene, &mut path, cam, light, s, false);
     }
     b.reset(scene, &mut path, s, t, sampler);
     if measurement(scene, &path) <= 0.0 {
         return None;
     }
+    if scene.has_media && t >= 1 {
+        let mut rays = 0;
+        super::media::connection(scene, &mut path, s, b.tracking, &mut rays, sampler)?;
+    }
     fill_pdfs(b, scene, &mut path, s, t);
+    if scene.has_media {
+        super::media::distance_pdfs(scene, &mut path, b.tracking);
+        path.fold_distances();
+    }
     Some(path)
 }

@@ -3,11 +3,19 @@
 //! (which layers a scalar throughput on top and keeps its bin spectra in parallel buffers,
 //! `allbins/`). Vertices, their pdfs, scattering lobes, light sampling and visibility come from
 //! the transport layer (`crate::transport`).
+//!
+//! In media the walk samples free flights through the integrator's [`Walker::travel`] (which
+//! keeps the spectral free-flight weight), makes medium vertices at collisions, crosses
+//! index-matched boundaries without a vertex, and logs every segment's stretches of medium
+//! ([`SegmentLog`]) so that the integrator can evaluate distance pdfs in both directions later.
 
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
 use crate::integrator::Sampler;
+use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
+use crate::transport::media::MAX_CROSSINGS;
+use crate::transport::segment::{Segment, Stretch, distance_to_surface, surface_media, towards};
 use crate::transport::{Vertex, VertexKind};
 
 /// What [`random_walk`] does after the integrator has seen a new vertex.
@@ -21,49 +29,175 @@ pub enum Step {
     Discard,
 }
 
+/// The segments of a sub-path in a media scene: `segs[i]` is the segment arriving at vertex i
+/// (`segs[0]` is unused) and `stretches` holds their stretches of medium.
+#[derive(Clone, Debug, Default)]
+pub struct SegmentLog {
+    pub segs: Vec<Segment>,
+    pub stretches: Vec<Stretch>,
+    /// The first stretch of the segment being traced.
+    open: u32,
+}
+
+impl SegmentLog {
+    pub fn clear(&mut self) {
+        self.segs.clear();
+        self.segs.push(Segment::default());
+        self.stretches.clear();
+        self.open = 0;
+    }
+
+    /// Add a stretch of `len` along `ray` in `medium` to the segment being traced.
+    #[inline]
+    fn stretch(&mut self, medium: u32, ray: &Ray, len: f32) {
+        if len.is_finite() {
+            self.stretches.push(Stretch {
+                medium,
+                o: ray.o,
+                d: ray.d,
+                len,
+            });
+        }
+    }
+
+    /// End the segment being traced at a vertex.
+    #[inline]
+    fn close(&mut self, far_end: f32, far_start: f32, end_media: [u32; 2]) {
+        let last = self.stretches.len() as u32;
+        self.segs.push(Segment {
+            first: self.open,
+            last,
+            far_end,
+            far_start,
+            end_media,
+            ..Segment::default()
+        });
+        self.open = last;
+    }
+}
+
+/// The integrator's part of a sub-path.
+pub trait Walker<P> {
+    /// Sample a free flight in `medium` (id `id`) along `ray` up to the surface at `t_max` (∞: none) for
+    /// the sub-path `verts` so far: `Some(t)` for a collision. The walker keeps the free-flight
+    /// weight itself and hands it to the next vertex's segment.
+    fn travel(
+        &mut self,
+        id: u32,
+        medium: &Medium,
+        ray: &Ray,
+        t_max: f32,
+        verts: &[Vertex<P>],
+        sampler: &mut Sampler,
+    ) -> Option<f32>;
+
+    /// Fill the payload of the new last vertex of `verts` (and, in media scenes, the weight
+    /// fields of the segment that reached it); called for non-scattering vertices too.
+    fn on_vertex(
+        &mut self,
+        verts: &mut [Vertex<P>],
+        seg: Option<&mut Segment>,
+        sampler: &mut Sampler,
+    ) -> Step;
+
+    /// Whether segment pdfs need the distance past a medium vertex to the next surface in the
+    /// reverse direction (fluorescence-aware tracking).
+    fn needs_far(&self) -> bool;
+}
+
 /// Extend a sub-path `verts` (holding at least its first vertex) along `ray`, leaving the last
-/// vertex with solid-angle pdf `pdf_dir`, until it holds `max_vertices` vertices, the ray escapes,
-/// a vertex does not scatter (`material == NONE`: emitter or black surface) or `on_vertex` says
-/// otherwise. Each new vertex gets its `pdf_fwd` and a default payload, then
-/// `on_vertex(verts, sampler)` fills the payload; it is also called for non-scattering vertices.
-/// A scattering vertex then samples its lobe (sampler: two values), which sets its
+/// vertex with solid-angle pdf `pdf_dir` in medium `medium`, until it holds `max_vertices`
+/// vertices, the ray escapes, a vertex does not scatter (`material == NONE`: emitter or black
+/// surface) or the walker says otherwise. Each new vertex gets its `pdf_fwd` (directional only:
+/// solid angle to area, no free-flight pdf) and a default payload, then the walker fills the
+/// payload. A scattering vertex then samples its lobe (sampler: two values), which sets its
 /// predecessor's `pdf_rev` (unless that is the pinhole), as pbrt-v4 does; both lobes are sampled
 /// exactly, so the directional throughput f·|cos|/pdf of every bounce is 1. Rays cast are
-/// added to `rays`.
+/// added to `rays`. `log` (media scenes only) receives the segments.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn random_walk<P: Copy + Default>(
     scene: &Scene,
     mut ray: Ray,
     mut pdf_dir: f32,
+    mut medium: u32,
     verts: &mut Vec<Vertex<P>>,
     max_vertices: usize,
     sampler: &mut Sampler,
     rays: &mut u64,
-    mut on_vertex: impl FnMut(&mut [Vertex<P>], &mut Sampler) -> Step,
+    mut log: Option<&mut SegmentLog>,
+    walker: &mut impl Walker<P>,
 ) {
+    let mut crossings = 0usize;
+    let mut far_start = f32::INFINITY;
     while verts.len() < max_vertices {
         *rays += 1;
-        let Some(it) = scene.intersect(&ray, f32::INFINITY) else {
-            return;
+        let hit = scene.intersect(&ray, f32::INFINITY);
+        let mut collision = None;
+        // Squared distance from the last vertex to the new one.
+        let mut d2 = 0.0f32;
+        if let Some(log) = log.as_deref_mut()
+            && let Some(m) = scene.medium(medium)
+        {
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            collision = walker.travel(medium, m, &ray, t_max, verts, sampler);
+            log.stretch(medium, &ray, collision.unwrap_or(t_max));
+            if let Some(t) = collision {
+                let p = ray.at(t);
+                d2 = (p - verts[verts.len() - 1].p).length_squared();
+                verts.push(Vertex::medium(p, medium, pdf_dir / d2));
+                log.close(t_max - t, far_start, [medium, medium]);
+            }
+        }
+        let (cur_p, cur_n) = if collision.is_some() {
+            let v = verts[verts.len() - 1];
+            (v.p, v.n)
+        } else {
+            let Some(it) = hit else {
+                return;
+            };
+            if log.is_some() && it.material == NONE && it.light == NONE {
+                // An index-matched boundary: not a vertex of the path.
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
+                    return;
+                }
+                medium = scene.medium_after(&it, ray.d, medium);
+                ray = spawn_ray(it.p, it.n, ray.d);
+                continue;
+            }
+            let prev = verts[verts.len() - 1];
+            d2 = if log.is_some() {
+                (it.p - prev.p).length_squared()
+            } else {
+                it.t * it.t
+            };
+            let mut v = Vertex::surface(&it, 0.0);
+            v.pdf_fwd = Vertex::<P>::area_pdf(pdf_dir, ray.d, d2, &v);
+            verts.push(v);
+            if let Some(log) = log.as_deref_mut() {
+                let media = surface_media(scene.interface(&it), medium);
+                log.close(f32::INFINITY, far_start, media);
+            }
+            (it.p, it.n)
         };
-        let d2 = it.t * it.t;
-        let mut v = Vertex::surface(&it, 0.0);
-        v.pdf_fwd = Vertex::<P>::area_pdf(pdf_dir, ray.d, d2, &v);
-        verts.push(v);
-        match on_vertex(verts, sampler) {
+        let seg = log.as_deref_mut().and_then(|l| l.segs.last_mut());
+        match walker.on_vertex(verts, seg, sampler) {
             Step::Continue => {}
             Step::Stop => return,
             Step::Discard => {
                 verts.pop();
+                if let Some(log) = log.as_deref_mut() {
+                    log.segs.pop();
+                }
                 return;
             }
         }
-        if it.material == NONE {
+        let cur = verts.len() - 1;
+        if !verts[cur].scatters() {
             return;
         }
-        let cur = verts.len() - 1;
-        let lobe = verts[cur].scattering();
+        let lobe = verts[cur].scattering(scene);
         let wo = -ray.d;
         let s = lobe.sample(wo, sampler.next2());
         let prev = &verts[cur - 1];
@@ -72,7 +206,54 @@ pub fn random_walk<P: Copy + Default>(
             let pdf_rev = Vertex::<P>::area_pdf(lobe.pdf(s.wi, wo), ray.d, d2, prev);
             verts[cur - 1].pdf_rev = pdf_rev;
         }
-        ray = spawn_ray(it.p, it.n, s.wi);
+        let medium_vertex = verts[cur].kind == VertexKind::Medium;
+        far_start = if medium_vertex && walker.needs_far() {
+            distance_to_surface(scene, cur_p, -s.wi, rays)
+        } else {
+            f32::INFINITY
+        };
+        if medium_vertex {
+            ray = Ray::new(cur_p, s.wi);
+        } else {
+            ray = spawn_ray(cur_p, cur_n, s.wi);
+        }
         pdf_dir = s.pdf;
+        if let Some(log) = log.as_deref()
+            && !medium_vertex
+        {
+            medium = towards(log.segs[cur].end_media, cur_n, s.wi);
+        }
+        crossings = 0;
+    }
+}
+
+/// A walker for scenes without media: only the vertex callback.
+pub struct SurfaceWalker<F>(pub F);
+
+impl<P, F: FnMut(&mut [Vertex<P>], &mut Sampler) -> Step> Walker<P> for SurfaceWalker<F> {
+    #[inline]
+    fn travel(
+        &mut self,
+        _: u32,
+        _: &Medium,
+        _: &Ray,
+        _: f32,
+        _: &[Vertex<P>],
+        _: &mut Sampler,
+    ) -> Option<f32> {
+        None
+    }
+    #[inline]
+    fn on_vertex(
+        &mut self,
+        verts: &mut [Vertex<P>],
+        _: Option<&mut Segment>,
+        s: &mut Sampler,
+    ) -> Step {
+        (self.0)(verts, s)
+    }
+    #[inline]
+    fn needs_far(&self) -> bool {
+        false
     }
 }

@@ -7,6 +7,7 @@
 
 use super::subpath::Vertex;
 use crate::integrator::MisHeuristic;
+use crate::transport::{Segment, Stretch};
 
 /// Which wavelength reset the integrator applies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +41,15 @@ pub struct FullPath {
     pub pc0: f64,
     /// p_l(λ(k−2) | x(k−1)) under the light's wavelength sampling (eq. 6.5).
     pub ple: f64,
+    /// Media scenes: `seg[i]` is the segment x_i → x(i+1), its stretches in `stretches` from x_i.
+    pub seg: Vec<Segment>,
+    pub stretches: Vec<Stretch>,
+    /// Media scenes: the media on the front and back side of each vertex.
+    pub media: Vec<[u32; 2]>,
+    /// Media scenes: the free-flight pdf of segment i sampled from x_i (camera direction, part of
+    /// `pa_fwd[i+1]`) and from x(i+1) (light direction, part of `pa_rev[i]`).
+    pub dist_fwd: Vec<f64>,
+    pub dist_rev: Vec<f64>,
 }
 
 impl FullPath {
@@ -57,6 +67,11 @@ impl FullPath {
             big_pl: vec![0.0; n],
             pc0: 0.0,
             ple: 0.0,
+            seg: Vec::with_capacity(n),
+            stretches: Vec::new(),
+            media: Vec::with_capacity(n),
+            dist_fwd: vec![1.0; n],
+            dist_rev: vec![1.0; n],
         }
     }
 
@@ -79,6 +94,8 @@ impl FullPath {
             &mut self.big_pc,
             &mut self.pl,
             &mut self.big_pl,
+            &mut self.dist_fwd,
+            &mut self.dist_rev,
         ] {
             if a.len() < k {
                 a.resize(k, 0.0);
@@ -150,6 +167,15 @@ impl FullPath {
                     None => self.light_tail(0),
                 }
             }
+        }
+    }
+
+    /// Multiply the free-flight pdfs of every segment into the area pdfs of the vertices they
+    /// reach (media scenes), after the strategy's own directional pdf has been taken.
+    pub fn fold_distances(&mut self) {
+        for i in 0..self.k.saturating_sub(1) {
+            self.pa_fwd[i + 1] *= self.dist_fwd[i];
+            self.pa_rev[i] *= self.dist_rev[i];
         }
     }
 

@@ -16,12 +16,14 @@
 pub mod allbins;
 pub mod evaluate;
 pub mod geometric;
+pub mod media;
 pub mod mis;
 pub mod reset;
 pub mod subpath;
 
 pub use crate::transport::VertexKind;
 pub use evaluate::{connect_for_test, strategy_layer};
+pub use geometric::SegmentLog;
 pub use mis::{FullPath, ResetMode};
 pub use subpath::{Vertex, camera_subpath, light_subpath};
 
@@ -29,6 +31,7 @@ use crate::integrator::{
     Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, SampleSink, Sampler,
 };
 use crate::material::ShiftSampling;
+use crate::medium::Tracking;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::cie::CameraWavelengths;
 
@@ -39,6 +42,7 @@ pub struct Bdpt {
     pub(crate) shift: ShiftSampling,
     pub(crate) light_wavelengths: LightWavelengths,
     pub(crate) mis: MisHeuristic,
+    pub(crate) tracking: Tracking,
     pub(crate) strategy_images: bool,
     /// Render only this strategy (s, t), unweighted (test hook for the per-strategy check).
     pub(crate) only: Option<(usize, usize)>,
@@ -49,6 +53,9 @@ pub struct Scratch {
     pub(crate) cam: Vec<Vertex>,
     pub(crate) light: Vec<Vertex>,
     pub(crate) path: FullPath,
+    /// The sub-paths' segments (media scenes).
+    pub(crate) cam_log: SegmentLog,
+    pub(crate) light_log: SegmentLog,
 }
 
 impl Bdpt {
@@ -57,9 +64,6 @@ impl Bdpt {
             ResetMode::Forward => "bdpt-forward",
             ResetMode::Backward => "bdpt-backward",
         };
-        if scene.has_media {
-            return Err(super::media_not_supported(name));
-        }
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "{name} refuses this scene: it has {f}; the wavelength reset needs directional \
@@ -76,6 +80,7 @@ impl Bdpt {
             shift: ShiftSampling::new(o.wavelength_sampling, scene.domain),
             light_wavelengths: o.light_wavelengths,
             mis: o.mis,
+            tracking: o.tracking,
             strategy_images: o.strategy_images,
             only: None,
         })
@@ -111,6 +116,7 @@ impl Bdpt {
             .observer
             .sample_wavelength(self.camera_wavelengths, sampler.next());
         let md = self.max_depth as usize;
+        let media = scene.has_media;
         camera_subpath(
             scene,
             x,
@@ -118,20 +124,24 @@ impl Bdpt {
             lambda0,
             md + 1,
             self.shift,
+            self.tracking,
             self.mode == ResetMode::Forward,
             sampler,
             stats,
             &mut scratch.cam,
+            media.then_some(&mut scratch.cam_log),
         );
         light_subpath(
             scene,
             md,
             self.light_wavelengths,
             self.shift,
+            self.tracking,
             self.mode == ResetMode::Backward,
             sampler,
             stats,
             &mut scratch.light,
+            media.then_some(&mut scratch.light_log),
         );
     }
 }
@@ -167,6 +177,8 @@ impl Integrator for Bdpt {
             cam: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
             path: FullPath::with_capacity(2 * n),
+            cam_log: SegmentLog::default(),
+            light_log: SegmentLog::default(),
         }
     }
 

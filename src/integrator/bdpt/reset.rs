@@ -1,20 +1,22 @@
 //! Wavelength resets after connecting a camera and a light sub-path (Jung 6.3.1).
 //!
+//! Fluorescent medium vertices reset exactly as fluorescent surfaces do, with the medium's P_c
+//! and P_l (`crate::transport::spectral`).
+//!
 //! `path.v` holds the full path x0 … x(k−1); `path.lambda[i]` is λi on the segment
 //! x(i+1) → xi and `path.shift[i]` whether xi changes the wavelength (λi ≠ λ(i−1)).
 
 use super::mis::FullPath;
 use crate::integrator::Sampler;
-use crate::material::{Bbrrdf, Material};
-use crate::scene::{NONE, Scene};
+use crate::material::{Bbrrdf, PathSide};
+use crate::scene::Scene;
+use crate::transport::spectral::with_spectrum;
 
-#[inline]
-fn material(scene: &Scene, id: u32) -> Option<&Material> {
-    if id == NONE {
-        None
-    } else {
-        Some(&scene.materials[id as usize])
-    }
+/// P_c or P_l of a vertex that can shift (the reset draws a number for it), `None` otherwise.
+#[inline(always)]
+fn fluorescence(m: &impl Bbrrdf, l: f32, side: PathSide) -> Option<f32> {
+    m.is_fluorescent()
+        .then(|| m.fluorescence_probability(l, side))
 }
 
 /// Wavelengths of the camera vertices x0 … x(s−1) as sampled (λ0 … λ(s−1)).
@@ -59,9 +61,9 @@ pub fn forward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mut
     for i in s..=k - 2 {
         let cur = path.lambda[i - 1];
         let v = path.v[i];
-        if let Some(m) = material(scene, v.material)
-            && m.is_fluorescent()
-            && sampler.next() < m.fluorescence_probability_camera(cur)
+        let p = with_spectrum!(scene, v, m => fluorescence(m, cur, PathSide::Camera), else None);
+        if let Some(p) = p
+            && sampler.next() < p
         {
             // Fluorescent interaction at x_i (prob. P_c): keep the light path's wavelengths.
             path.shift[i] = true;
@@ -80,9 +82,9 @@ pub fn backward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mu
     for i in (1..s).rev() {
         let cur = path.lambda[i];
         let v = path.v[i];
-        if let Some(m) = material(scene, v.material)
-            && m.is_fluorescent()
-            && sampler.next() < m.fluorescence_probability_light(cur)
+        let p = with_spectrum!(scene, v, m => fluorescence(m, cur, PathSide::Light), else None);
+        if let Some(p) = p
+            && sampler.next() < p
         {
             // Fluorescent interaction at x_i (prob. P_l): keep the camera path's wavelengths.
             path.shift[i] = true;

@@ -110,7 +110,7 @@ impl Walk {
             if MEDIA && let Some(m) = scene.medium(s.medium) {
                 let t_max = hit.map_or(f32::INFINITY, |h| h.t);
                 let mut u = || sampler.next();
-                match travel(m, &ray, t_max, s.lambda, n, self.tracking, &mut u) {
+                match travel(m, &ray, t_max, s.lambda, n, self.tracking, false, &mut u) {
                     Travel::Collision { t, factor, ratio } => {
                         s.beta *= factor;
                         s.ratio *= ratio;
@@ -406,6 +406,7 @@ impl Walk {
                 self.tracking,
                 rays,
                 &mut u,
+                None,
             ) else {
                 return L::ZERO;
             };

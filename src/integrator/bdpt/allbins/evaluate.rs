@@ -118,10 +118,10 @@ pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, wi: Vec3) -> f32 
             let l = &scene.lights[v.light as usize];
             if l.emits_towards(v.n, wi) { 1.0 } else { 0.0 }
         }
-        VertexKind::Surface => {
+        VertexKind::Surface | VertexKind::Medium => {
             let Some(prev) = prev else { return 0.0 };
             let (wo, _) = v.towards(prev);
-            v.scattering().eval(wo, wi)
+            v.scattering(scene).eval(wo, wi)
         }
         VertexKind::Camera => 0.0,
     }

@@ -5,6 +5,28 @@ use super::Vertex;
 use crate::integrator::MisHeuristic;
 use crate::scene::Scene;
 
+/// Media: the free-flight pdfs next to the connection that the sub-paths' stored pdfs lack (1
+/// without media): the connection sampled from the camera end towards the light end and back,
+/// and the segments reaching the two end vertices sampled in reverse.
+#[derive(Clone, Copy, Debug)]
+pub struct MediaPdfs {
+    pub conn_to_light: f32,
+    pub conn_to_camera: f32,
+    pub cam_rev: f32,
+    pub light_rev: f32,
+}
+
+impl Default for MediaPdfs {
+    fn default() -> Self {
+        MediaPdfs {
+            conn_to_light: 1.0,
+            conn_to_camera: 1.0,
+            cam_rev: 1.0,
+            light_rev: 1.0,
+        }
+    }
+}
+
 /// Pdf overrides for the four vertices next to the connection (pbrt's `ScopedAssignment`s).
 struct Overrides {
     pt: f32,
@@ -14,7 +36,9 @@ struct Overrides {
 }
 
 /// MIS weight of strategy (s, t): w = 1 / Σ_i (p_i / p_s)^β (Veach eq. 10.9 via pbrt ratios).
-/// `sampled` replaces the light vertex when s = 1 or the camera vertex when t = 1.
+/// `sampled` replaces the light vertex when s = 1 or the camera vertex when t = 1; `media`
+/// holds the free-flight pdfs of the connection and of the segments next to it.
+#[allow(clippy::too_many_arguments)]
 pub fn weight(
     scene: &Scene,
     heuristic: MisHeuristic,
@@ -23,6 +47,7 @@ pub fn weight(
     s: usize,
     t: usize,
     sampled: Option<&Vertex>,
+    media: MediaPdfs,
 ) -> f32 {
     if s + t == 2 {
         return 1.0;
@@ -43,31 +68,33 @@ pub fn weight(
     let qs_minus = if s > 1 { Some(&light[s - 2]) } else { None };
     let pt_minus = if t > 1 { Some(&camera[t - 2]) } else { None };
 
+    let m = media;
     let o = Overrides {
         pt: match qs {
-            Some(qs) => qs.pdf(scene, qs_minus, pt),
+            Some(qs) => qs.pdf(scene, qs_minus, pt) * m.conn_to_camera,
             None => pt.pdf_light_origin(scene),
         },
         pt_minus: match (pt_minus, qs) {
-            (Some(pm), Some(qs)) => pt.pdf(scene, Some(qs), pm),
-            (Some(pm), None) => pt.pdf_emit(scene, pm),
+            (Some(pm), Some(qs)) => pt.pdf(scene, Some(qs), pm) * m.cam_rev,
+            (Some(pm), None) => pt.pdf_emit(scene, pm) * m.cam_rev,
             _ => 0.0,
         },
         qs: match qs {
-            Some(qs) => pt.pdf(scene, pt_minus, qs),
+            Some(qs) => pt.pdf(scene, pt_minus, qs) * m.conn_to_light,
             None => 0.0,
         },
         qs_minus: match (qs, qs_minus) {
-            (Some(qs), Some(qm)) => qs.pdf(scene, Some(pt), qm),
+            (Some(qs), Some(qm)) => qs.pdf(scene, Some(pt), qm) * m.light_rev,
             _ => 0.0,
         },
     };
     let e = heuristic.exponent();
-    let powr = |r: f32| if e == 1.0 { r } else { r * r };
-    let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
-    let mut sum = 0.0f32;
+    let powr = |r: f64| if e == 1.0 { r } else { r * r };
+    // f64: the ratios of pdfs through media (1/d² of close collisions) can exceed f32's range.
+    let remap = |f: f32| if f != 0.0 { f as f64 } else { 1.0 };
+    let mut sum = 0.0f64;
     // Camera side: vertices t−1 … 1 (the pinhole is never hit).
-    let mut ri = 1.0f32;
+    let mut ri = 1.0f64;
     for i in (1..t).rev() {
         let rev = if i == t - 1 {
             o.pt
@@ -80,7 +107,7 @@ pub fn weight(
         sum += powr(ri);
     }
     // Light side: vertices s−1 … 0 (area lights only, no δ vertices).
-    let mut ri = 1.0f32;
+    let mut ri = 1.0f64;
     for i in (0..s).rev() {
         let (rev, fwd) = if i == s - 1 {
             (o.qs, qs.map_or(1.0, |v| v.pdf_fwd))
@@ -92,5 +119,6 @@ pub fn weight(
         ri *= remap(rev) / remap(fwd);
         sum += powr(ri);
     }
-    1.0 / (1.0 + sum)
+    let w = 1.0 / (1.0 + sum);
+    if w.is_nan() { 0.0 } else { w as f32 }
 }

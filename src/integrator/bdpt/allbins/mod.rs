@@ -9,20 +9,25 @@
 
 pub mod binops;
 pub mod evaluate;
+pub mod media;
 pub mod mis;
 
-use super::geometric::{Step, random_walk};
+use super::geometric::{SegmentLog, Step, Walker, random_walk};
 use super::{strategy_layer, strategy_layer_names};
+use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
+use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::spectrum::cie::cmf;
-use crate::transport::{self, VertexKind, transmittance};
+use crate::transport::segment::{self, grey_distance_pdf};
+use crate::transport::{self, Segment, Stretch, VertexKind, transmittance};
 use binops::SupportedOp;
 use evaluate::{Support, dot3_on, f_dir, pinhole_we};
 use glam::Vec3;
+use media::BinMedia;
 
 /// The payload of an all-bins vertex: the scalar (directional) throughput arriving at it,
 /// products of f_dir·cos/pdf and 1/(pmf·pdf_area) at a light origin. The spectral part lives in
@@ -77,18 +82,37 @@ pub struct BdptAllbins {
     pub only: Option<(usize, usize)>,
     /// One image per strategy, named as bdpt's (`s{camera vertices}_t{light vertices}`).
     strategy_images: bool,
+    /// Media tables (empty without media).
+    media: BinMedia,
+}
+
+/// The bin buffers of one sub-path.
+pub struct SideBufs {
+    /// Light spectrum leaving vertex i (operator applied), `bins` values per vertex; or the
+    /// camera importance rows leaving vertex j (transposed operators applied), 3·bins each.
+    buf: Vec<f32>,
+    support: Vec<Support>,
+    /// Media: the per-bin free-flight weight of the segment reaching each vertex.
+    seg_w: Vec<f32>,
+    /// Media: the weight of the segment being traced, and a spare vector.
+    cur_w: Vec<f32>,
+    tmp: Vec<f32>,
+    /// Media: the free-flight pdf of each segment sampled in reverse (towards the sub-path's
+    /// start), for the MIS weights.
+    drev: Vec<f32>,
 }
 
 /// Per-thread buffers, reused across samples.
 pub struct Scratch {
     light: Vec<Vertex>,
     camera: Vec<Vertex>,
-    /// Light spectrum leaving vertex i (material applied), `bins` values per vertex.
-    spec: Vec<f32>,
-    /// Importance rows leaving camera vertex j (transposed operators applied), 3·bins each.
-    rows: Vec<f32>,
-    spec_support: Vec<Support>,
-    rows_support: Vec<Support>,
+    lig: SideBufs,
+    cam: SideBufs,
+    /// Media: the sub-paths' segments, and the connection's transmittance and stretches.
+    cam_log: SegmentLog,
+    light_log: SegmentLog,
+    conn_t: Vec<f32>,
+    conn_st: Vec<Stretch>,
 }
 
 /// The camera importance rows for a grid: bin average of each CMF times the bin width, over
@@ -121,9 +145,6 @@ pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
 
 impl BdptAllbins {
     pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
-        if scene.has_media {
-            return Err(crate::integrator::media_not_supported("bdpt-allbins"));
-        }
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "bdpt-allbins needs wavelength-independent directional sampling; the scene has {f}"
@@ -144,6 +165,7 @@ impl BdptAllbins {
             .map(|l| l.spectrum.to_bins(&grid))
             .collect();
         let w = camera_rows(scene, &grid);
+        let media = BinMedia::new(scene, &grid);
         let le_support = le.iter().map(|l| Support::of(l)).collect();
         let w_support = Support::of_rows(&w, grid.len());
         Ok(BdptAllbins {
@@ -157,6 +179,7 @@ impl BdptAllbins {
             w_support,
             only: None,
             strategy_images: o.strategy_images,
+            media,
         })
     }
 }
@@ -171,15 +194,18 @@ impl BdptAllbins {
         s: usize,
         t: usize,
         sampled: Option<&Vertex>,
+        media: Option<mis::MediaPdfs>,
     ) -> f32 {
         if self.only.is_some() {
             1.0
         } else {
-            mis::weight(scene, self.mis, &sc.light, &sc.camera, s, t, sampled)
+            let m = media.unwrap_or_default();
+            mis::weight(scene, self.mis, &sc.light, &sc.camera, s, t, sampled, m)
         }
     }
 
-    /// Camera sub-path z0 …: rows[j] = M_jᵀ · rows[j−1], rows[0] = w.
+    /// Camera sub-path z0 …: rows[j] = M_jᵀ · (W_j ∘ rows[j−1]), rows[0] = w, where W_j is the
+    /// per-bin free-flight weight of the segment reaching z_j (1 without media).
     fn trace_camera(
         &self,
         scene: &Scene,
@@ -189,61 +215,57 @@ impl BdptAllbins {
         sc: &mut Scratch,
     ) -> u64 {
         let n = self.grid.len();
-        let max_depth = self.max_depth;
         let Scratch {
             camera,
-            rows,
-            rows_support,
+            cam,
+            cam_log,
             ..
         } = sc;
         camera.clear();
         let (mut z0, ray, pdf_cam) = Vertex::camera(scene, x, y);
         z0.data.beta = 1.0;
         camera.push(z0);
-        rows[..3 * n].copy_from_slice(&self.w);
-        rows_support[0] = self.w_support;
+        cam.buf[..3 * n].copy_from_slice(&self.w);
+        cam.support[0] = self.w_support;
+        let media = scene.has_media;
+        cam.cur_w.fill(1.0);
+        cam_log.clear();
+        let mut walker = BinWalker::<true> {
+            ev: self,
+            n,
+            beta: 1.0,
+            bufs: cam,
+        };
         let mut rays = 0u64;
         random_walk(
             scene,
             ray,
             pdf_cam,
+            scene.camera_medium,
             camera,
-            max_depth + 1,
+            self.max_depth + 1,
             sampler,
             &mut rays,
-            |verts, _| {
-                let j = verts.len() - 1;
-                verts[j].data.beta = 1.0;
-                let m = verts[j].material;
-                // The last vertex (j = max_depth) is only used by s = 0.
-                if m == NONE || j >= max_depth {
-                    return Step::Stop;
-                }
-                let (prev, cur) = rows.split_at_mut(j * 3 * n);
-                let prev = &prev[(j - 1) * 3 * n..];
-                let cur = &mut cur[..3 * n];
-                rows_support[j] =
-                    self.ops[m as usize].apply_transposed3(prev, rows_support[j - 1], cur, n);
-                if rows_support[j].is_empty() {
-                    Step::Stop
-                } else {
-                    Step::Continue
-                }
-            },
+            media.then_some(&mut *cam_log),
+            &mut walker,
         );
+        if media {
+            fold_distances(scene, &self.media, camera, cam_log, &mut cam.drev);
+        }
         rays
     }
 
-    /// Light sub-path y0 …: spec[i] = M_i · spec[i−1], spec[0] = Le.
+    /// Light sub-path y0 …: spec[i] = M_i · (W_i ∘ spec[i−1]), spec[0] = Le.
     fn trace_light(&self, scene: &Scene, sampler: &mut Sampler, sc: &mut Scratch) -> u64 {
         let n = self.grid.len();
         let Scratch {
             light,
-            spec,
-            spec_support,
+            lig,
+            light_log,
             ..
         } = sc;
         light.clear();
+        light_log.clear();
         if self.max_depth < 2 {
             return 0;
         }
@@ -253,56 +275,107 @@ impl BdptAllbins {
         let (lray, pdf_dir) = (spawn_ray(y0.p, y0.n, e.w), e.pdf_dir);
         // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
         let beta_out = e.weight / y0.pdf_fwd;
-        spec[..n].copy_from_slice(&self.le[l]);
-        spec_support[0] = self.le_support[l];
+        lig.buf[..n].copy_from_slice(&self.le[l]);
+        lig.support[0] = self.le_support[l];
         light.push(y0);
+        let media = scene.has_media;
+        let medium = segment::towards(scene.light_media(l), y0.n, e.w);
+        lig.cur_w.fill(1.0);
+        let mut walker = BinWalker::<false> {
+            ev: self,
+            n,
+            beta: beta_out,
+            bufs: lig,
+        };
         let mut rays = 0u64;
         random_walk(
             scene,
             lray,
             pdf_dir,
+            medium,
             light,
             self.max_depth,
             sampler,
             &mut rays,
-            |verts, _| {
-                let i = verts.len() - 1;
-                let m = verts[i].material;
-                if m == NONE {
-                    // Black: cannot scatter or connect.
-                    return Step::Discard;
-                }
-                verts[i].data.beta = beta_out;
-                let (prev, cur) = spec.split_at_mut(i * n);
-                let cur = &mut cur[..n];
-                // Stop once the spectrum is zero in every bin (Jung 8.2).
-                spec_support[i] =
-                    self.ops[m as usize].apply(&prev[(i - 1) * n..], spec_support[i - 1], cur);
-                if spec_support[i].is_empty() {
-                    Step::Stop
-                } else {
-                    Step::Continue
-                }
-            },
+            media.then_some(&mut *light_log),
+            &mut walker,
         );
+        if media {
+            fold_distances(scene, &self.media, light, light_log, &mut lig.drev);
+        }
         rays
     }
 
     /// s = 0: the camera sub-path's vertex z(t−1) is an emitter; the weighted contribution.
-    fn emitter_hit(&self, scene: &Scene, sc: &Scratch, t: usize) -> Option<Vec3> {
+    fn emitter_hit(&self, scene: &Scene, sc: &mut Scratch, t: usize) -> Option<Vec3> {
         let n = self.grid.len();
         let z = &sc.camera[t - 1];
         if !z.is_emitter() {
             return None;
         }
-        let on = sc.rows_support[t - 2].intersect(self.le_support[z.light as usize]);
+        let li = z.light as usize;
+        let on = sc.cam.support[t - 2].intersect(self.le_support[li]);
         let zp = &sc.camera[t - 2];
-        if on.is_empty() || !scene.lights[z.light as usize].emits_towards(z.n, zp.p - z.p) {
+        if on.is_empty() || !scene.lights[li].emits_towards(z.n, zp.p - z.p) {
             return None;
         }
-        let q = &sc.rows[(t - 2) * 3 * n..(t - 1) * 3 * n];
-        let c = dot3_on(q, &self.le[z.light as usize], on) * z.data.beta;
-        (c != Vec3::ZERO).then(|| c * self.weight(scene, sc, 0, t, None))
+        let q = &sc.cam.buf[(t - 2) * 3 * n..(t - 1) * 3 * n];
+        let mut media = None;
+        let le: &[f32] = if scene.has_media {
+            // the free-flight weights of the last segment
+            let w = &sc.cam.seg_w[(t - 1) * n..t * n];
+            for ((o, a), b) in sc.conn_t.iter_mut().zip(&self.le[li]).zip(w) {
+                *o = a * b;
+            }
+            media = Some(mis::MediaPdfs {
+                cam_rev: sc.cam.drev[t - 1],
+                ..mis::MediaPdfs::default()
+            });
+            &sc.conn_t
+        } else {
+            &self.le[li]
+        };
+        let c = dot3_on(q, le, on) * z.data.beta;
+        (c != Vec3::ZERO).then(|| c * self.weight(scene, sc, 0, t, None, media))
+    }
+
+    /// Media: the per-bin transmittance of the connection from `a` (sub-path vertex `ia` of the
+    /// camera sub-path if `a_camera`, else of the light sub-path) to `b` into `sc.conn_t`, and
+    /// the free-flight pdfs of the connection in both directions (`None`: blocked).
+    #[allow(clippy::too_many_arguments)]
+    fn connection(
+        &self,
+        scene: &Scene,
+        sc: &mut Scratch,
+        a: &Vertex,
+        a_camera: bool,
+        ia: usize,
+        b: &Vertex,
+        sampler: &mut Sampler,
+        rays: &mut u64,
+    ) -> Option<(f32, f32)> {
+        let d = (b.p - a.p).normalize();
+        let medium = match a.kind {
+            VertexKind::Camera => scene.camera_medium,
+            VertexKind::Medium => a.material,
+            _ if a_camera => segment::towards(sc.cam_log.segs[ia].end_media, a.n, d),
+            _ if ia == 0 => segment::towards(scene.light_media(a.light as usize), a.n, d),
+            _ => segment::towards(sc.light_log.segs[ia].end_media, a.n, d),
+        };
+        sc.conn_st.clear();
+        let mut u = || sampler.next();
+        let (ea, eb) = (a.endpoint(), b.endpoint());
+        let (out, log) = (&mut sc.conn_t, &mut sc.conn_st);
+        if !self
+            .media
+            .transmittance(scene, ea, eb, medium, out, log, rays, &mut u)
+        {
+            return None;
+        }
+        let rate = |id: u32| (self.media.flight[id as usize], self.media.rate[id as usize]);
+        let to_b = grey_distance_pdf(scene, log, false, b.kind == VertexKind::Medium, rate);
+        let to_a = grey_distance_pdf(scene, log, true, a.kind == VertexKind::Medium, rate);
+        Some((to_b, to_a))
     }
 
     /// t = 1: connect the light vertex y(s−1) to the pinhole; the weighted contribution and its
@@ -310,32 +383,54 @@ impl BdptAllbins {
     fn light_tracing(
         &self,
         scene: &Scene,
-        sc: &Scratch,
+        sc: &mut Scratch,
         s: usize,
+        sampler: &mut Sampler,
         rays: &mut u64,
     ) -> Option<(f32, f32, Vec3)> {
         let n = self.grid.len();
         let cam = &scene.camera;
-        let yv = &sc.light[s - 1];
-        let on = self.w_support.intersect(sc.spec_support[s - 1]);
+        let yv = sc.light[s - 1];
+        let on = self.w_support.intersect(sc.lig.support[s - 1]);
         if yv.material == NONE || on.is_empty() {
             return None;
         }
         let zc = camera_vertex(scene);
-        let (wdir, dist2) = zc.towards(yv);
+        let (wdir, dist2) = zc.towards(&yv);
         let (px, py, cos) = cam.project(wdir)?;
-        let fy = f_dir(scene, yv, sc.light.get(s.wrapping_sub(2)), -wdir);
+        let fy = f_dir(scene, &yv, sc.light.get(s.wrapping_sub(2)), -wdir);
         if fy == 0.0 {
             return None;
         }
         let g = cos * yv.abs_cos(wdir) / dist2;
         let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
-        let c = dot3_on(&self.w, &sc.spec[(s - 1) * n..s * n], on) * scal;
-        // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
-        if c == Vec3::ZERO || transmittance(scene, yv.endpoint(), zc.endpoint(), rays).is_zero() {
-            return None;
+        if !scene.has_media {
+            let c = dot3_on(&self.w, &sc.lig.buf[(s - 1) * n..s * n], on) * scal;
+            if c == Vec3::ZERO || transmittance(scene, yv.endpoint(), zc.endpoint(), rays).is_zero()
+            {
+                return None;
+            }
+            return Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc), None)));
         }
-        Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc))))
+        let (to_cam, to_y) = self.connection(scene, sc, &yv, false, s - 1, &zc, sampler, rays)?;
+        let ys = &sc.lig.buf[(s - 1) * n..s * n];
+        for (o, a) in sc.conn_t.iter_mut().zip(ys) {
+            *o *= a;
+        }
+        let c = dot3_on(&self.w, &sc.conn_t, on) * scal;
+        let media = mis::MediaPdfs {
+            conn_to_camera: to_cam,
+            conn_to_light: to_y,
+            light_rev: if s >= 2 { sc.lig.drev[s - 1] } else { 1.0 },
+            ..mis::MediaPdfs::default()
+        };
+        (c != Vec3::ZERO).then(|| {
+            (
+                px,
+                py,
+                c * self.weight(scene, sc, s, 1, Some(&zc), Some(media)),
+            )
+        })
     }
 
     /// s ≥ 1, t ≥ 2: connect z(t−1) to y(s−1) (s = 1: a fresh light point, sampler: four
@@ -343,59 +438,196 @@ impl BdptAllbins {
     fn connect(
         &self,
         scene: &Scene,
-        sc: &Scratch,
+        sc: &mut Scratch,
         s: usize,
         t: usize,
         sampler: &mut Sampler,
         rays: &mut u64,
     ) -> Option<Vec3> {
         let n = self.grid.len();
-        let z = &sc.camera[t - 1];
-        if z.material == NONE || sc.rows_support[t - 1].is_empty() {
+        let z = sc.camera[t - 1];
+        if z.material == NONE || sc.cam.support[t - 1].is_empty() {
             return None;
         }
         if s >= 2
-            && sc.rows_support[t - 1]
-                .intersect(sc.spec_support[s - 1])
+            && sc.cam.support[t - 1]
+                .intersect(sc.lig.support[s - 1])
                 .is_empty()
         {
             return None;
         }
-        let zp = &sc.camera[t - 2];
-        let q = &sc.rows[(t - 1) * 3 * n..t * 3 * n];
-        let sampled;
-        let (yv, ys, ysup, yprev): (&Vertex, &[f32], Support, Option<&Vertex>) = if s == 1 {
-            sampled = sample_light_vertex(scene, sampler);
-            let l = sampled.light as usize;
-            (&sampled, &self.le[l], self.le_support[l], None)
+        let zp = sc.camera[t - 2];
+        let (yv, ysup, yprev) = if s == 1 {
+            let y = sample_light_vertex(scene, sampler);
+            (y, self.le_support[y.light as usize], None)
         } else {
-            let ys = &sc.spec[(s - 1) * n..s * n];
-            (
-                &sc.light[s - 1],
-                ys,
-                sc.spec_support[s - 1],
-                sc.light.get(s.wrapping_sub(2)),
-            )
+            let prev = sc.light.get(s.wrapping_sub(2)).copied();
+            (sc.light[s - 1], sc.lig.support[s - 1], prev)
         };
-        let on = sc.rows_support[t - 1].intersect(ysup);
-        if on.is_empty() || (yv.kind == VertexKind::Surface && yv.material == NONE) {
+        let on = sc.cam.support[t - 1].intersect(ysup);
+        if on.is_empty() || !matches!(yv.kind, VertexKind::Light) && yv.material == NONE {
             return None;
         }
         // The connection z → y: lobes at both ends and the geometry term (Veach eq. 8.3).
-        let (w, d2) = z.towards(yv);
-        let fz = f_dir(scene, z, Some(zp), w);
-        let fy = f_dir(scene, yv, yprev, -w);
+        let (w, d2) = z.towards(&yv);
+        let fz = f_dir(scene, &z, Some(&zp), w);
+        let fy = f_dir(scene, &yv, yprev.as_ref(), -w);
         let g = z.abs_cos(w) * yv.abs_cos(w) / d2;
         let scal = fz * fy * g * z.data.beta * yv.data.beta;
         if scal == 0.0 {
             return None;
         }
-        let c = dot3_on(q, ys, on) * scal;
-        // Without media the transmittance is 0 or 1 (bdpt-allbins refuses media).
-        if c == Vec3::ZERO || transmittance(scene, z.endpoint(), yv.endpoint(), rays).is_zero() {
-            return None;
+        let sampled = (s == 1).then_some(&yv);
+        let q = &sc.cam.buf[(t - 1) * 3 * n..t * 3 * n];
+        let ys: &[f32] = if s == 1 {
+            &self.le[yv.light as usize]
+        } else {
+            &sc.lig.buf[(s - 1) * n..s * n]
+        };
+        if !scene.has_media {
+            let c = dot3_on(q, ys, on) * scal;
+            if c == Vec3::ZERO || transmittance(scene, z.endpoint(), yv.endpoint(), rays).is_zero()
+            {
+                return None;
+            }
+            return Some(c * self.weight(scene, sc, s, t, sampled, None));
         }
-        Some(c * self.weight(scene, sc, s, t, if s == 1 { Some(yv) } else { None }))
+        let (to_y, to_z) = self.connection(scene, sc, &z, true, t - 1, &yv, sampler, rays)?;
+        let ys: &[f32] = if s == 1 {
+            &self.le[yv.light as usize]
+        } else {
+            &sc.lig.buf[(s - 1) * n..s * n]
+        };
+        for (o, a) in sc.conn_t.iter_mut().zip(ys) {
+            *o *= a;
+        }
+        let q = &sc.cam.buf[(t - 1) * 3 * n..t * 3 * n];
+        let c = dot3_on(q, &sc.conn_t, on) * scal;
+        let media = mis::MediaPdfs {
+            conn_to_light: to_y,
+            conn_to_camera: to_z,
+            cam_rev: sc.cam.drev[t - 1],
+            light_rev: if s >= 2 { sc.lig.drev[s - 1] } else { 1.0 },
+        };
+        (c != Vec3::ZERO).then(|| c * self.weight(scene, sc, s, t, sampled, Some(media)))
+    }
+}
+
+/// The all-bins side of a sub-path walk: the light spectrum (light paths) or the importance
+/// rows (camera paths) through each vertex's bin operator, and in media the per-bin free-flight
+/// weights of the segments.
+struct BinWalker<'a, const CAMERA: bool> {
+    ev: &'a BdptAllbins,
+    n: usize,
+    /// The scalar throughput stored at each new vertex.
+    beta: f32,
+    bufs: &'a mut SideBufs,
+}
+
+impl<const CAMERA: bool> Walker<Throughput> for BinWalker<'_, CAMERA> {
+    #[inline]
+    fn travel(
+        &mut self,
+        id: u32,
+        medium: &Medium,
+        ray: &Ray,
+        t_max: f32,
+        _: &[Vertex],
+        sampler: &mut Sampler,
+    ) -> Option<f32> {
+        let mut u = || sampler.next();
+        let w = &mut self.bufs.cur_w;
+        self.ev.media.travel(id, medium, ray, t_max, w, &mut u)
+    }
+
+    #[inline]
+    fn on_vertex(
+        &mut self,
+        verts: &mut [Vertex],
+        seg: Option<&mut Segment>,
+        _: &mut Sampler,
+    ) -> Step {
+        let n = self.n;
+        let j = verts.len() - 1;
+        verts[j].data.beta = self.beta;
+        let b = &mut *self.bufs;
+        let media = seg.is_some();
+        if media {
+            b.seg_w[j * n..(j + 1) * n].copy_from_slice(&b.cur_w);
+            b.cur_w.fill(1.0);
+        }
+        let v = verts[j];
+        if !v.scatters() {
+            // Camera paths keep an emitter they hit (s = 0); light paths cannot use it.
+            return if CAMERA { Step::Stop } else { Step::Discard };
+        }
+        // The last camera vertex (j = max_depth) is only used by s = 0.
+        if CAMERA && j >= self.ev.max_depth {
+            return Step::Stop;
+        }
+        let op = if v.kind == VertexKind::Medium {
+            &self.ev.media.ops[v.material as usize]
+        } else {
+            &self.ev.ops[v.material as usize]
+        };
+        let stride = if CAMERA { 3 * n } else { n };
+        let (prev, cur) = b.buf.split_at_mut(j * stride);
+        let prev = &prev[(j - 1) * stride..];
+        let cur = &mut cur[..stride];
+        let input: &[f32] = if media {
+            let w = &b.seg_w[j * n..(j + 1) * n];
+            for (k, (o, x)) in b.tmp[..stride].iter_mut().zip(prev).enumerate() {
+                *o = x * w[k % n];
+            }
+            &b.tmp[..stride]
+        } else {
+            prev
+        };
+        let ps = b.support[j - 1];
+        b.support[j] = if CAMERA {
+            op.apply_transposed3(input, ps, cur, n)
+        } else {
+            // Stop once the spectrum is zero in every bin (Jung 8.2).
+            op.apply(input, ps, cur)
+        };
+        if b.support[j].is_empty() {
+            Step::Stop
+        } else {
+            Step::Continue
+        }
+    }
+
+    #[inline]
+    fn needs_far(&self) -> bool {
+        false
+    }
+}
+
+/// Media: multiply each sampled segment's free-flight pdfs (the all-bins tracking's, which do
+/// not depend on wavelength) into the area pdfs of the vertices at its ends; `drev[j]` keeps the
+/// reverse one of the segment reaching vertex j for the MIS of connections.
+fn fold_distances(
+    scene: &Scene,
+    media: &BinMedia,
+    verts: &mut [Vertex],
+    log: &SegmentLog,
+    drev: &mut [f32],
+) {
+    let rate = |id: u32| (media.flight[id as usize], media.rate[id as usize]);
+    for j in 1..verts.len() {
+        let seg = log.segs[j];
+        let st = seg.stretches(&log.stretches);
+        let fwd = grey_distance_pdf(scene, st, false, verts[j].kind == VertexKind::Medium, rate);
+        let rev = grey_distance_pdf(
+            scene,
+            st,
+            true,
+            verts[j - 1].kind == VertexKind::Medium,
+            rate,
+        );
+        verts[j].pdf_fwd *= fwd;
+        verts[j - 1].pdf_rev *= rev;
+        drev[j] = rev;
     }
 }
 
@@ -405,13 +637,23 @@ impl Integrator for BdptAllbins {
     fn scratch(&self, _: &Scene) -> Scratch {
         let n = self.grid.len();
         let v = self.max_depth + 2;
+        let side = |stride: usize| SideBufs {
+            buf: vec![0.0; v * stride],
+            support: vec![Support::EMPTY; v],
+            seg_w: vec![1.0; v * n],
+            cur_w: vec![1.0; n],
+            tmp: vec![0.0; 3 * n],
+            drev: vec![1.0; v],
+        };
         Scratch {
             light: Vec::with_capacity(v),
             camera: Vec::with_capacity(v),
-            spec: vec![0.0; v * n],
-            rows: vec![0.0; v * 3 * n],
-            spec_support: vec![Support::EMPTY; v],
-            rows_support: vec![Support::EMPTY; v],
+            lig: side(n),
+            cam: side(3 * n),
+            cam_log: SegmentLog::default(),
+            light_log: SegmentLog::default(),
+            conn_t: vec![1.0; n],
+            conn_st: Vec::new(),
         }
     }
 
@@ -446,7 +688,8 @@ impl Integrator for BdptAllbins {
                 // bdpt's strategy-image order: (camera vertices, light vertices)
                 let layer = strategy_layer(t, s);
                 if t == 1 {
-                    let Some((px, py, c)) = self.light_tracing(scene, sc, s, &mut rays) else {
+                    let Some((px, py, c)) = self.light_tracing(scene, sc, s, sampler, &mut rays)
+                    else {
                         continue;
                     };
                     if sink.splat(px, py, c) {
