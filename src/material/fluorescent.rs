@@ -113,19 +113,8 @@ impl Bbrrdf for FluorescentDiffuse {
     /// (Jung 5.3.2).
     #[inline]
     fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
-        let (lambda, density) = match side {
-            PathSide::Light => self.e_dist.sample(u[1]),
-            PathSide::Camera => self.a_dist.sample(u[1]),
-        };
-        let kernel = match side {
-            PathSide::Light => self.kernel(l, lambda),
-            PathSide::Camera => self.kernel(lambda, l),
-        };
-        ShiftDraw {
-            lambda,
-            density,
-            kernel,
-        }
+        let k = |li, lo| self.kernel(li, lo);
+        ShiftDraw::rank_one(&self.a_dist, &self.e_dist, k, l, u[1], side)
     }
     #[inline]
     fn shift_density(&self, _l: f32, l_new: f32, side: PathSide) -> f32 {

@@ -75,6 +75,35 @@ pub struct ShiftDraw {
     pub kernel: f32,
 }
 
+impl ShiftDraw {
+    /// Jung 5.3.2's importance sampling of a rank-one kernel k(λin → λout) ∝ a(λin)·e(λout):
+    /// the emitted wavelength from `e_dist` on light paths, the absorbed one from `a_dist` on
+    /// camera paths, given the known wavelength `l`; `kernel` evaluates k for the pair.
+    #[inline]
+    pub fn rank_one(
+        a_dist: &crate::spectrum::Distribution1D,
+        e_dist: &crate::spectrum::Distribution1D,
+        kernel: impl Fn(f32, f32) -> f32,
+        l: f32,
+        u: f32,
+        side: PathSide,
+    ) -> ShiftDraw {
+        let (lambda, density) = match side {
+            PathSide::Light => e_dist.sample(u),
+            PathSide::Camera => a_dist.sample(u),
+        };
+        let kernel = match side {
+            PathSide::Light => kernel(l, lambda),
+            PathSide::Camera => kernel(lambda, l),
+        };
+        ShiftDraw {
+            lambda,
+            density,
+            kernel,
+        }
+    }
+}
+
 /// A wavelength chosen at a vertex by the two-step choice of Jung 5.3.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WavelengthSample {

@@ -89,19 +89,14 @@ impl Bbrrdf for Coefficients {
                 kernel: 0.0,
             };
         };
-        let (lambda, density) = match side {
-            PathSide::Light => f.e_dist.sample(u[1]),
-            PathSide::Camera => f.a_dist.sample(u[1]),
-        };
-        let kernel = match side {
-            PathSide::Light => f.kernel(l, lambda),
-            PathSide::Camera => f.kernel(lambda, l),
-        };
-        ShiftDraw {
-            lambda,
-            density,
-            kernel,
-        }
+        ShiftDraw::rank_one(
+            &f.a_dist,
+            &f.e_dist,
+            |li, lo| f.kernel(li, lo),
+            l,
+            u[1],
+            side,
+        )
     }
     #[inline]
     fn shift_density(&self, _l: f32, l_new: f32, side: PathSide) -> f32 {
