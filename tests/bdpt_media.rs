@@ -17,8 +17,8 @@
 mod common;
 
 use common::{
-    Quadrants, assert_agree, assert_agree_within, dye_box, load, mean_xyz, media_scenes,
-    quadrant_stats, quadrant_y, quadrants,
+    Quadrants, assert_agree, assert_agree_within, dye_box, load, load_sized, mean_xyz,
+    media_scenes, quadrant_stats, quadrant_y, quadrants,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -244,9 +244,7 @@ fn furnace_medium_holds_for_every_bdpt_and_tracking_mode() {
 /// with pt-hero per quadrant within 3σ at 32×32 pixels and 16 segments (the scene's depth).
 #[test]
 fn bdpts_agree_with_pt_hero_in_the_cornell_box_medium() {
-    let mut scene = load("cornell-box-medium.json");
-    scene.camera.width = 32;
-    scene.camera.height = 32;
+    let scene = load_sized("cornell-box-medium.json", 32);
     let opts = IntegratorOptions {
         max_depth: 16,
         ..Default::default()
@@ -548,9 +546,7 @@ fn each_strategy_alone_matches_the_mis_combined_light_of_its_length() {
 /// pixels and 4 segments.
 #[test]
 fn strategy_images_sum_to_the_image_in_a_medium() {
-    let mut scene = load("media-scattering.json");
-    scene.camera.width = 16;
-    scene.camera.height = 16;
+    let scene = load_sized("media-scattering.json", 16);
     let opts = IntegratorOptions {
         max_depth: 4,
         strategy_images: true,

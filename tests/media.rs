@@ -6,7 +6,9 @@
 
 mod common;
 
-use common::{assert_agree, dye_box, load, mean_xyz, media_scenes, noise_ok, quadrants};
+use common::{
+    assert_agree, dye_box, load, load_sized, mean_xyz, media_scenes, noise_ok, quadrants,
+};
 use std::path::Path;
 use stokes::integrator::{IntegratorKind, IntegratorOptions};
 use stokes::medium::Tracking;
@@ -100,9 +102,7 @@ fn mono_hero_and_tracking_modes_agree_in_a_fluorescent_medium() {
 /// The grey Cornell-box medium (the Mitsuba comparison scene): pt-mono and pt-hero agree.
 #[test]
 fn mono_and_hero_agree_in_the_cornell_box_medium() {
-    let mut scene = load("cornell-box-medium.json");
-    scene.camera.width = 32;
-    scene.camera.height = 32;
+    let scene = load_sized("cornell-box-medium.json", 32);
     let opts = IntegratorOptions {
         max_depth: 16,
         ..Default::default()
@@ -116,9 +116,7 @@ fn mono_and_hero_agree_in_the_cornell_box_medium() {
 /// fluorescent smoke of Mojzík Fig. 15, and so do the majorants of exponential and max tracking.
 #[test]
 fn grid_media_agree() {
-    let mut scene = load("media-smoke.json");
-    scene.camera.width = 24;
-    scene.camera.height = 24;
+    let scene = load_sized("media-smoke.json", 24);
     let opts = |tracking| IntegratorOptions {
         max_depth: 10,
         tracking,

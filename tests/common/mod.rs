@@ -20,6 +20,18 @@ pub fn load(name: &str) -> Scene {
     .unwrap()
 }
 
+/// [`load`] with the film resized to `size`×`size` pixels.
+pub fn load_sized(name: &str, size: u32) -> Scene {
+    sized(load(name), size)
+}
+
+/// `scene` with its film resized to `size`×`size` pixels.
+pub fn sized(mut scene: Scene, size: u32) -> Scene {
+    scene.camera.width = size;
+    scene.camera.height = size;
+    scene
+}
+
 /// The mean XYZ of a render and the standard error of its mean Y over the pixels.
 pub fn mean_xyz(
     scene: &Scene,
@@ -176,9 +188,7 @@ pub fn media_scenes(size: u32) -> Vec<(String, Scene)> {
     paths
         .into_iter()
         .filter_map(|path| {
-            let mut scene = Scene::load(&path).unwrap();
-            scene.camera.width = size;
-            scene.camera.height = size;
+            let scene = sized(Scene::load(&path).unwrap(), size);
             let stem = path.file_stem().unwrap().to_string_lossy().to_string();
             scene.has_media.then_some((stem, scene))
         })
