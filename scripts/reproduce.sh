@@ -41,6 +41,7 @@ experiments=(
   media-integrators-walls-fog
   media-integrators-divider
   media-integrators-cube
+  gmm-vs-matrix
 )
 
 failed=()
@@ -53,6 +54,13 @@ for e in "${experiments[@]}"; do
   else
     failed+=("$e")
   fi
+done
+
+# Hua 2022's colour evaluation of Gaussian-mixture fits of the 144 RIT matrices (seconds).
+for method in em bayes; do
+  echo "== gmm eval ($method)"
+  "$bin" gmm eval data/bispectral/rit --components 2,4,8 --method "$method" \
+    -o "$out/gmm-eval/$method" || failed+=("gmm eval $method")
 done
 
 if [ ${#failed[@]} -gt 0 ]; then

@@ -208,8 +208,25 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
     );
     for (n, m) in s.material_names.iter().zip(&s.materials) {
         use crate::material::Bbrrdf;
+        let kind = match m {
+            crate::material::Material::Lambert(_) => "lambert".to_string(),
+            crate::material::Material::Fluorescent(_) => "fluorescent-diffuse".to_string(),
+            crate::material::Material::Reradiation(r) => {
+                let (o, i) = r.shape();
+                format!(
+                    "reradiation, {o}×{i} matrix, {} bytes to render",
+                    r.render_bytes()
+                )
+            }
+            crate::material::Material::ReradiationGmm(g) => format!(
+                "reradiation-gmm, {} Gaussians, model {} bytes, {} bytes to render",
+                g.components(),
+                g.model_bytes(),
+                g.render_bytes()
+            ),
+        };
         println!(
-            "material {n}: {}",
+            "material {n}: {kind}, {}",
             if m.is_fluorescent() {
                 "fluorescent"
             } else {
@@ -276,6 +293,177 @@ pub fn figures(dir: &Path) -> Result<(), Error> {
     let run = crate::experiment::figures::resolve_run_dir(dir).map_err(Error::input)?;
     let files = crate::experiment::figures::make_all(&run).map_err(Error::runtime)?;
     for f in files {
+        println!("{}", f.display());
+    }
+    Ok(())
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmFitArgs {
+    /// A BFC file, or a folder of them.
+    pub input: PathBuf,
+    /// Gaussians per mixture (at most 32; `bayes` may use fewer).
+    #[arg(long, default_value_t = 8)]
+    pub components: usize,
+    /// Weighted EM, or weighted variational Bayesian inference (Hua §5.2).
+    #[arg(long, value_enum, default_value = "em")]
+    pub method: crate::material::mixture::FitMethod,
+    /// Seed of the k-means++ initialisation; fits are deterministic for a seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Iteration limit of a fit.
+    #[arg(long, default_value_t = 1000)]
+    pub max_iterations: usize,
+    /// Convergence: stop when the mean log-likelihood changes by less than this.
+    #[arg(long, default_value_t = 1e-7)]
+    pub tolerance: f64,
+    /// Output model file (one input file) or folder (a folder of inputs: `<STEM>.json` each).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmDenseArgs {
+    /// A fitted model file (`stokes gmm fit`).
+    pub model: PathBuf,
+    /// Cell size of the matrix in nm; must divide the measured support (1, 2, 5, 10 for RIT).
+    #[arg(long, default_value_t = 1.0)]
+    pub step: f32,
+    /// Output BFC file, for the `reradiation` material.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Write the dense matrix a model evaluates to, as a BFC file.
+pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
+    use crate::material::mixture::GmmFile;
+    let text = std::fs::read_to_string(&a.model)
+        .map_err(|e| Error::input(format!("cannot read '{}': {e}", a.model.display())))?;
+    let f = GmmFile::parse(&text)
+        .map_err(|m| Error::input(format!("malformed GMM file '{}': {m}", a.model.display())))?;
+    let m = f
+        .to_matrix_at(a.step)
+        .map_err(|m| Error::input(format!("--{m}")))?;
+    let title = format!(
+        "dense {} nm matrix of the GMM fit of {}",
+        a.step, f.source.file
+    );
+    crate::film::output::write_atomic(&a.output, |tmp| {
+        std::fs::write(tmp, m.to_bfc(&title)).map_err(|e| e.to_string())
+    })
+    .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", a.output.display())))?;
+    println!(
+        "{}: {}×{} cells of {} nm",
+        a.output.display(),
+        m.n_em,
+        m.n_ex,
+        a.step
+    );
+    Ok(())
+}
+
+pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
+    use crate::material::mixture::FitOptions;
+    let mut opt = FitOptions::new(a.components, a.method, a.seed);
+    opt.max_iterations = a.max_iterations;
+    opt.tolerance = a.tolerance;
+    if !a.input.exists() {
+        return Err(Error::input(format!(
+            "'{}' does not exist (give a BFC file or a folder of them)",
+            a.input.display()
+        )));
+    }
+    let t = std::time::Instant::now();
+    let fitted = crate::gmm::fit::fit(&a.input, &opt, &a.output)?;
+    let secs = t.elapsed().as_secs_f64();
+    for f in &fitted {
+        let m = &f.model;
+        println!(
+            "{}: {} components, {} iterations{}, scale {:.4} nm -> {}",
+            f.input.display(),
+            m.components.len(),
+            m.fit.iterations,
+            if m.fit.converged {
+                ""
+            } else {
+                " (not converged)"
+            },
+            m.scale,
+            f.output.display()
+        );
+    }
+    let unconverged = fitted.iter().filter(|f| !f.model.fit.converged).count();
+    println!(
+        "fitted {} matrices ({} components, {:?}, seed {}) in {secs:.2} s; {unconverged} did not converge",
+        fitted.len(),
+        a.components,
+        a.method,
+        a.seed
+    );
+    Ok(())
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmEvalArgs {
+    /// A folder of BFC files (e.g. data/bispectral/rit).
+    pub dir: PathBuf,
+    /// Numbers of Gaussians to fit, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "2,4,8")]
+    pub components: Vec<usize>,
+    #[arg(long, value_enum, default_value = "em")]
+    pub method: crate::material::mixture::FitMethod,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Folder of illuminant tables ("λ, value" CSV files).
+    #[arg(long, default_value = crate::gmm::evaluate::DEFAULT_ILLUMINANTS)]
+    pub illuminants: PathBuf,
+    /// Output folder: delta-e00.csv, summary.json, box plots.
+    #[arg(short, long, default_value = crate::gmm::evaluate::DEFAULT_OUT)]
+    pub output: PathBuf,
+}
+
+/// ΔE00 of fitted against measured matrices under CIE illuminants and monochromatic light.
+pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
+    let s = crate::gmm::evaluate::evaluate(
+        &a.dir,
+        &a.components,
+        a.method,
+        a.seed,
+        &a.output,
+        &a.illuminants,
+    )?;
+    println!(
+        "{} matrices, {} illuminants, {} monochromatic lines, {:?} fits, {:.1} s",
+        s.materials.len(),
+        s.illuminants.len(),
+        s.mono_wavelengths.len(),
+        s.method,
+        s.seconds
+    );
+    println!(
+        "  K | ΔE00 CIE mean  median     p95     max | mono mean  median     p95     max | worst under CIE"
+    );
+    for c in &s.per_components {
+        println!(
+            "{:>3} | {:>13.3} {:>7.3} {:>7.3} {:>7.3} | {:>9.3} {:>7.3} {:>7.3} {:>7.3} | {}",
+            c.components,
+            c.cie.mean,
+            c.cie.median,
+            c.cie.p95,
+            c.cie.max,
+            c.mono.mean,
+            c.mono.median,
+            c.mono.p95,
+            c.mono.max,
+            c.worst_cie
+                .iter()
+                .take(3)
+                .map(|m| format!("{} {:.2}", m.material, m.mean))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    for f in &s.outputs {
         println!("{}", f.display());
     }
     Ok(())

@@ -5,6 +5,7 @@ pub mod error;
 pub mod experiment;
 pub mod film;
 pub mod geometry;
+pub mod gmm;
 pub mod integrator;
 pub mod material;
 pub mod medium;

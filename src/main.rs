@@ -27,11 +27,26 @@ enum Command {
         /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
         results_dir: PathBuf,
     },
+    /// Gaussian-mixture reradiation models (Hua 2022): fit measured matrices, evaluate the fits.
+    Gmm {
+        #[command(subcommand)]
+        command: GmmCommand,
+    },
     /// Print what a scene contains (materials, lights, fluorescence) after validation.
     Inspect {
         /// Scene JSON file.
         scene: PathBuf,
     },
+}
+
+#[derive(Subcommand)]
+enum GmmCommand {
+    /// Fit a BFC file, or every BFC file of a folder, with a Gaussian mixture.
+    Fit(cli::GmmFitArgs),
+    /// Write the dense matrix a fitted model evaluates to, as a BFC file.
+    Dense(cli::GmmDenseArgs),
+    /// ΔE00 of fits against the measured matrices of a folder (Hua §7), with box plots.
+    Eval(cli::GmmEvalArgs),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +56,11 @@ fn main() -> ExitCode {
         Command::Inspect { scene } => cli::inspect(&scene),
         Command::Experiment(a) => cli::experiment(&a),
         Command::Figures { results_dir } => cli::figures(&results_dir),
+        Command::Gmm { command } => match command {
+            GmmCommand::Fit(a) => cli::gmm_fit(&a),
+            GmmCommand::Dense(a) => cli::gmm_dense(&a),
+            GmmCommand::Eval(a) => cli::gmm_eval(&a),
+        },
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

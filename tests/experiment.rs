@@ -1,6 +1,8 @@
 //! Experiment runner: metrics on synthetic images, config errors (exit code 2, field named),
 //! and `--quick` runs end to end.
 
+mod common;
+
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
@@ -13,19 +15,6 @@ fn bin() -> &'static str {
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "stokes-exp-{tag}-{}-{}",
-        std::process::id(),
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_nanos()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn gaussian(rng: &mut rand_pcg::Pcg64) -> f64 {
@@ -99,7 +88,7 @@ fn rel_mse_of_known_perturbation_is_exact() {
 
 /// Write `json` as a config in a temp folder and run `stokes experiment` on it.
 fn run_config(tag: &str, json: &str) -> (i32, String, PathBuf) {
-    let d = temp_dir(tag);
+    let d = common::temp_dir(tag);
     let cfg = d.join("config.json");
     std::fs::write(&cfg, json).unwrap();
     let out = Command::new(bin())
@@ -271,7 +260,7 @@ fn check_run_outputs(out: &Path, name: &str, variants: &[&str], regions: &[&str]
 #[test]
 fn quick_pt_mono_experiment_end_to_end() {
     let t = std::time::Instant::now();
-    let d = temp_dir("quick");
+    let d = common::temp_dir("quick");
     let out = d.join("results");
     let status = Command::new(bin())
         .args(["experiment"])
@@ -336,7 +325,7 @@ fn quick_pt_mono_experiment_end_to_end() {
 #[test]
 fn quick_walls_integrators_end_to_end() {
     let t = std::time::Instant::now();
-    let d = temp_dir("walls");
+    let d = common::temp_dir("walls");
     let out = d.join("results");
     let o = Command::new(bin())
         .args(["experiment"])
@@ -369,7 +358,7 @@ fn quick_walls_integrators_end_to_end() {
 
 #[test]
 fn quick_parameter_grid() {
-    let d = temp_dir("grid");
+    let d = common::temp_dir("grid");
     let out = d.join("results");
     let st = Command::new(bin())
         .args(["experiment"])
@@ -499,4 +488,145 @@ fn sweep_path_missing_from_the_scene_is_an_input_error() {
         &sweep_config("media.fluid.sigma_a").replace("[0, 0.5]", "[]"),
         "sweep.values",
     );
+}
+
+/// The walls scene with its light `factor` times as strong (and `width`×`height` pixels), written
+/// into `dir` as `name`.
+fn walls_variant(dir: &Path, name: &str, factor: f32, size: (u32, u32)) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenes/fluorescent-walls.json")).unwrap();
+    assert!(text.contains("\"scale\": 40.0") && text.contains("\"width\": 256"));
+    let text = text
+        .replace("\"scale\": 40.0", &format!("\"scale\": {}", 40.0 * factor))
+        .replace("\"width\": 256", &format!("\"width\": {}", size.0))
+        .replace("\"height\": 256", &format!("\"height\": {}", size.1));
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A variant with its own `scene` renders that scene (here the walls with a light a quarter as
+/// strong) against the config scene's reference and regions, also under `--quick`; the other
+/// variants keep the config's scene.
+#[test]
+fn variant_with_its_own_scene() {
+    let d = common::temp_dir("variant-scene");
+    walls_variant(&d, "dim.json", 0.25, (256, 256));
+    let cfg = d.join("config.json");
+    std::fs::write(
+        &cfg,
+        format!(
+            r#"{{ "name": "vs", "scene": "{}",
+                "reference": {{ "integrator": "pt-hero", "spp": 16 }},
+                "variants": [ {{ "name": "same", "integrator": "pt-hero" }},
+                              {{ "name": "dim", "integrator": "pt-hero", "scene": "dim.json" }} ],
+                "budget": {{ "spp": [2, 4] }},
+                "regions": {{ "by": "shape" }} }}"#,
+            walls()
+        ),
+    )
+    .unwrap();
+    let out = d.join("results");
+    let o = Command::new(bin())
+        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let run = check_run_outputs(&out, "vs", &["same", "dim"], &["all", "floor", "back"]);
+    let mean = |f: &str| {
+        let (w, h, px) = stokes::film::output::read_exr(&run.join(f)).unwrap();
+        assert_eq!(
+            (w, h),
+            (48, 48),
+            "{f}: the quick size of the config's scene"
+        );
+        px.iter().map(|c| c.x + c.y + c.z).sum::<f32>() / px.len() as f32
+    };
+    let (reference, same, dim) = (
+        mean("reference.exr"),
+        mean("images/same__spp1__r0.exr"),
+        mean("images/dim__spp1__r0.exr"),
+    );
+    assert!(
+        (same / reference - 1.0).abs() < 0.25,
+        "same scene: {same} vs reference {reference}"
+    );
+    assert!(
+        (dim / same - 0.25).abs() < 0.08,
+        "the dim variant's own scene: {dim} vs {same}"
+    );
+    // The recorded config keeps the variant's scene; the reference cache key is the config
+    // scene's, so a config without variant scenes finds the same cached reference.
+    let info = std::fs::read_to_string(run.join("run.json")).unwrap();
+    assert!(info.contains("dim.json"));
+    let refs = std::fs::read_dir(out.join("references")).unwrap().count();
+    std::fs::write(
+        &cfg,
+        format!(
+            r#"{{ "name": "vs2", "scene": "{}",
+                "reference": {{ "integrator": "pt-hero", "spp": 16 }},
+                "variants": [ {{ "name": "same", "integrator": "pt-hero" }} ],
+                "budget": {{ "spp": [2] }} }}"#,
+            walls()
+        ),
+    )
+    .unwrap();
+    let o = Command::new(bin())
+        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read_dir(out.join("references")).unwrap().count(),
+        refs
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A variant scene that is missing, invalid or at another resolution than the config's scene
+/// stops the run before anything renders, naming the config file and `variants[i].scene`.
+#[test]
+fn variant_scene_errors_name_the_config_and_the_field() {
+    let d = common::temp_dir("variant-scene-errors");
+    walls_variant(&d, "small.json", 1.0, (128, 256));
+    std::fs::write(d.join("broken.json"), "{ \"camera\": 3 }").unwrap();
+    let cfg = d.join("config.json");
+    for (tag, scene, extra, want) in [
+        ("mismatch", "small.json", "", "128×256"),
+        ("missing", "none.json", "", "not found"),
+        ("invalid", "broken.json", "", "broken.json"),
+        (
+            "with-sweep",
+            "small.json",
+            r#", "sweep": { "path": "camera.fov", "values": [30, 40] }"#,
+            "sweep",
+        ),
+    ] {
+        std::fs::write(
+            &cfg,
+            format!(
+                r#"{{ "name": "ve", "scene": "{}",
+                    "reference": {{ "integrator": "pt-mono", "spp": 16 }},
+                    "variants": [ {{ "name": "a", "integrator": "pt-mono" }},
+                                  {{ "name": "b", "integrator": "pt-mono", "scene": "{scene}" }} ],
+                    "budget": {{ "spp": [1, 2] }} {extra} }}"#,
+                walls()
+            ),
+        )
+        .unwrap();
+        let o = Command::new(bin())
+            .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
+            .arg(d.join("results"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{tag}: {err}");
+        for w in ["config.json", "variants[1].scene", want] {
+            assert!(err.contains(w), "{tag}: should name {w}: {err}");
+        }
+        assert!(!d.join("results/ve").exists(), "{tag}: nothing rendered");
+    }
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -74,6 +74,11 @@ pub struct Variant {
     pub integrator: IntegratorKind,
     #[serde(default)]
     pub options: IntegratorOptions,
+    /// A scene file (relative to the config) that replaces the config's scene for this variant
+    /// only, e.g. another material in the same layout; the reference and the regions still come
+    /// from the config's scene. Its camera resolution must be the config scene's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<PathBuf>,
 }
 
 /// Snapshots at an spp ladder, at equal-time budgets, or both (each is run separately).
@@ -240,8 +245,41 @@ impl Config {
             v.options
                 .validate()
                 .map_err(|m| err(file, &format!("variants[{i}].options"), m))?;
+            if let Some(p) = &v.scene {
+                let field = format!("variants[{i}].scene");
+                let sp = resolve(file, p);
+                if !sp.is_file() {
+                    return Err(err(
+                        file,
+                        &field,
+                        format!("scene file '{}' not found", sp.display()),
+                    ));
+                }
+                // A sweep or a grid changes the config's scene: which scene a variant with its
+                // own would then render is ambiguous.
+                for (set, key) in [
+                    (self.sweep.is_some(), "sweep"),
+                    (self.grid.is_some(), "grid"),
+                ] {
+                    if set {
+                        return Err(err(
+                            file,
+                            &field,
+                            format!("a variant's own scene cannot be combined with `{key}`"),
+                        ));
+                    }
+                }
+            }
         }
         Ok(())
+    }
+
+    /// The scene path of variant `i` resolved against the config's folder, if it has its own.
+    pub fn variant_scene_path(&self, config_file: &Path, i: usize) -> Option<PathBuf> {
+        self.variants[i]
+            .scene
+            .as_ref()
+            .map(|p| resolve(config_file, p))
     }
 
     fn validate_reference(&self, file: &Path) -> Result<(), InputError> {

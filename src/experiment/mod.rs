@@ -16,7 +16,7 @@ pub mod runner;
 // scene JSON for the grid and the sweep.
 mod grid;
 mod overrides;
-mod progress;
+pub mod progress;
 mod reference;
 mod regions;
 mod setup;

@@ -21,6 +21,8 @@ pub struct Setup {
     pub scene_text: String,
     /// The scene, its camera resized to `width`×`height`.
     pub scene: Scene,
+    /// Per variant, its own scene (`variants[i].scene`) at the same resolution, if it has one.
+    pub variant_scenes: Vec<Option<Scene>>,
     /// The scene's own resolution.
     pub full_width: u32,
     pub full_height: u32,
@@ -62,6 +64,16 @@ impl Setup {
         let (fw, fh) = (scene.camera.width, scene.camera.height);
         let (w, h) = if quick { quick_size(fw, fh) } else { (fw, fh) };
         resize_camera(&mut scene, w, h);
+        let variant_scenes = (0..cfg.variants.len())
+            .map(|i| {
+                let Some(p) = cfg.variant_scene_path(config_path, i) else {
+                    return Ok(None);
+                };
+                let mut vs = load_variant_scene(config_path, i, &p, (fw, fh))?;
+                resize_camera(&mut vs, w, h);
+                Ok(Some(vs))
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
         let mut s = Setup {
             modes: mode_budgets(&cfg),
             cfg,
@@ -71,6 +83,7 @@ impl Setup {
             scene_path,
             scene_text,
             scene,
+            variant_scenes,
             full_width: fw,
             full_height: fh,
             width: w,
@@ -140,32 +153,33 @@ impl Setup {
     /// Fail before rendering, naming the variant and integrator, when an integrator of a
     /// variant or of the reference does not accept the scene or its options.
     pub fn check_integrators(&self) -> Result<(), Error> {
-        for v in &self.cfg.variants {
-            self.check(v.integrator, &v.options, &format!("variant `{}`", v.name))?;
+        for (i, v) in self.cfg.variants.iter().enumerate() {
+            let what = format!("variant `{}`", v.name);
+            check(self.variant_scene(i), v.integrator, &v.options, &what)?;
         }
         if let Some(r) = &self.cfg.reference
             && let Some(k) = r.integrator
         {
-            self.check(k, &r.options, "reference")?;
+            check(&self.scene, k, &r.options, "reference")?;
         }
         Ok(())
     }
 
-    fn check(
-        &self,
-        kind: IntegratorKind,
-        opts: &IntegratorOptions,
-        what: &str,
-    ) -> Result<(), Error> {
-        crate::integrator::render::check(&self.scene, kind, opts)
-            .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
+    /// The scene variant `i` renders: its own (`variants[i].scene`) or the config's.
+    pub fn variant_scene(&self, i: usize) -> &Scene {
+        self.variant_scenes
+            .get(i)
+            .and_then(Option::as_ref)
+            .unwrap_or(&self.scene)
     }
 
     /// This run with another config and scene (a sweep value's): the same config file, results
-    /// root, resolution, crop, scanline and budgets.
+    /// root, resolution, crop, scanline and budgets. Variants render `scene` (the config check
+    /// rejects a variant's own scene together with a sweep).
     pub fn with_scene(&self, cfg: Config, scene_text: String, mut scene: Scene) -> Setup {
         resize_camera(&mut scene, self.width, self.height);
         Setup {
+            variant_scenes: cfg.variants.iter().map(|_| None).collect(),
             cfg,
             config_path: self.config_path.clone(),
             quick: self.quick,
@@ -187,6 +201,46 @@ impl Setup {
     pub fn resize(&self, scene: &mut Scene) {
         resize_camera(scene, self.width, self.height);
     }
+}
+
+fn check(
+    scene: &Scene,
+    kind: IntegratorKind,
+    opts: &IntegratorOptions,
+    what: &str,
+) -> Result<(), Error> {
+    crate::integrator::render::check(scene, kind, opts)
+        .map_err(|e| Error::input(format!("{what}: integrator `{}`: {e}", kind.name())))
+}
+
+/// Load variant `i`'s own scene `path` and check that it renders at the config scene's
+/// resolution `full`; errors name the config file and `variants[i].scene`.
+fn load_variant_scene(
+    config_path: &Path,
+    i: usize,
+    path: &Path,
+    full: (u32, u32),
+) -> Result<Scene, Error> {
+    let field = |m: String| {
+        Error::input(format!(
+            "{}: field `variants[{i}].scene`: {m}",
+            config_path.display()
+        ))
+    };
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| field(format!("cannot read '{}': {e}", path.display())))?;
+    let scene =
+        Scene::from_str(path, &text).map_err(|e| field(format!("the scene is not valid: {e}")))?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    if (w, h) != full {
+        return Err(field(format!(
+            "'{}' renders {w}×{h}, the config's scene {}×{}: a variant's scene must have the same resolution",
+            path.display(),
+            full.0,
+            full.1
+        )));
+    }
+    Ok(scene)
 }
 
 fn resize_camera(scene: &mut Scene, w: u32, h: u32) {

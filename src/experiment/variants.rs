@@ -31,19 +31,21 @@ impl Runs<'_> {
     pub fn render_all(&self) -> Result<Vec<Row>, Error> {
         let mut rows = Vec::new();
         for mb in &self.setup.modes {
-            for v in &self.setup.cfg.variants {
+            for (i, v) in self.setup.cfg.variants.iter().enumerate() {
                 for rep in 0..self.setup.cfg.repeats {
-                    self.render_one(mb, v, rep, &mut rows)?;
+                    self.render_one(mb, i, v, rep, &mut rows)?;
                 }
             }
         }
         Ok(rows)
     }
 
-    /// One variant at the budgets `mb`, repeat `rep` (seed `seed + rep`).
+    /// Variant `i` (`v`) at the budgets `mb`, repeat `rep` (seed `seed + rep`), in its own scene
+    /// when it has one.
     fn render_one(
         &self,
         mb: &ModeBudgets,
+        i: usize,
         v: &Variant,
         rep: u32,
         rows: &mut Vec<Row>,
@@ -81,7 +83,7 @@ impl Runs<'_> {
         };
         let mut cb = |film: &Film, stats: &Stats, secs: f64| snap.on_pass(film, stats, secs);
         render(
-            &self.setup.scene,
+            self.setup.variant_scene(i),
             v.integrator,
             &v.options,
             &settings,

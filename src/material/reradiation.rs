@@ -11,27 +11,85 @@
 use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
 use crate::spectrum::{BinGrid, Domain};
 
-#[derive(Clone, Debug)]
-pub struct Reradiation {
-    em_lo: f32,
-    ex_lo: f32,
-    step: f32,
-    n_em: usize,
-    n_ex: usize,
-    /// Cleaned matrix, row-major [o][i].
-    d: Vec<f32>,
-    domain: Domain,
-    /// Per excitation column: Σ_o D[o][i]·w_o/Δλ (∫ρ dλo) and the CDF over o.
-    col_total: Vec<f32>,
-    col_cdf: Vec<Vec<f32>>,
-    /// Per emission row: ∫ρ dλi and the CDF over i.
-    row_total: Vec<f32>,
-    row_cdf: Vec<Vec<f32>>,
+/// A measured reradiation matrix as loaded and cleaned (Hua §5.1), before any rendering
+/// tables: what the `reradiation` material renders and what `stokes gmm fit` fits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BfcMatrix {
+    /// First emission wavelength (row 0), nm.
+    pub em_lo: f32,
+    /// First excitation wavelength (column 0), nm.
+    pub ex_lo: f32,
+    /// Grid step of both axes, nm.
+    pub step: f32,
+    pub n_em: usize,
+    pub n_ex: usize,
+    /// Cleaned matrix, row-major [o][i]: the diagonal is the reflectance, an off-diagonal entry
+    /// the kernel times the excitation step.
+    pub d: Vec<f32>,
 }
 
-impl Reradiation {
-    /// Parse a BFC-450 matrix file. Errors name the line and what is wrong.
-    pub fn parse_bfc(text: &str, domain: Domain) -> Result<Self, String> {
+impl BfcMatrix {
+    /// Emission wavelength of row `o`.
+    #[inline]
+    pub fn em(&self, o: usize) -> f32 {
+        self.em_lo + o as f32 * self.step
+    }
+    /// Excitation wavelength of column `i`.
+    #[inline]
+    pub fn ex(&self, i: usize) -> f32 {
+        self.ex_lo + i as f32 * self.step
+    }
+    /// Whether cell (o, i) is on the diagonal (λo = λi).
+    #[inline]
+    pub fn is_diagonal(&self, o: usize, i: usize) -> bool {
+        (self.em(o) - self.ex(i)).abs() < 1e-3
+    }
+    /// Off-diagonal entry (zero on the diagonal cell).
+    #[inline]
+    pub fn off(&self, o: usize, i: usize) -> f32 {
+        if self.is_diagonal(o, i) {
+            0.0
+        } else {
+            self.d[o * self.n_ex + i]
+        }
+    }
+    /// The reflectance (diagonal) at emission row `o`; zero where the excitation grid has no
+    /// such wavelength.
+    pub fn reflectance(&self, o: usize) -> f32 {
+        let i = ((self.em(o) - self.ex_lo) / self.step).round();
+        if i < 0.0 || i as usize >= self.n_ex {
+            0.0
+        } else {
+            self.d[o * self.n_ex + i as usize]
+        }
+    }
+
+    /// The matrix as a BFC-450 file that [`BfcMatrix::parse`] reads back unchanged.
+    pub fn to_bfc(&self, title: &str) -> String {
+        let mut t = format!(
+            "BFC-450 Matrix File\n;{title}\n{} {} {} {} {} {}\nr:c:",
+            self.em_lo,
+            self.em(self.n_em - 1),
+            self.step,
+            self.n_ex,
+            self.ex_lo,
+            self.step
+        );
+        for i in 0..self.n_ex {
+            t += &format!(" {}", self.ex(i));
+        }
+        for o in 0..self.n_em {
+            t += &format!("\n{}", self.em(o));
+            for i in 0..self.n_ex {
+                t += &format!(" {:e}", self.d[o * self.n_ex + i]);
+            }
+        }
+        t + "\nEOD\n"
+    }
+
+    /// Parse a BFC-450 matrix file and clean it (Hua §5.1). Errors name the line and what is
+    /// wrong.
+    pub fn parse(text: &str) -> Result<Self, String> {
         let mut lines = text
             .lines()
             .enumerate()
@@ -58,13 +116,8 @@ impl Reradiation {
         }
         let (hno, h) =
             header.ok_or("no header line 'em_lo em_hi step n_ex ex_lo ex_step' found")?;
-        let (em_lo, em_hi, step, n_ex, ex_lo, ex_step) =
-            (h[0], h[1], h[2], h[3] as usize, h[4], h[5]);
-        if step <= 0.0 || (step - ex_step).abs() > 1e-6 || em_hi < em_lo || n_ex == 0 || n_ex > 1000
-        {
-            return Err(format!("line {hno}: inconsistent header {h:?}"));
-        }
-        let n_em = ((em_hi - em_lo) / step).round() as usize + 1;
+        let (em_lo, step, ex_lo) = (h[0], h[2], h[4]);
+        let (n_ex, n_em) = check_header(&h).map_err(|m| format!("line {hno}: header {m}"))?;
         let (cno, cols) = lines.next().ok_or("missing the 'r:c:' column line")?;
         let cols: Vec<&str> = cols.split_whitespace().collect();
         if cols.first() != Some(&"r:c:") || cols.len() != n_ex + 1 {
@@ -74,6 +127,7 @@ impl Reradiation {
         }
         let mut d = vec![0.0f32; n_em * n_ex];
         let mut rows_seen = 0;
+        let mut seen = vec![false; n_em];
         for (no, l) in lines {
             if l.eq_ignore_ascii_case("EOD") {
                 break;
@@ -95,6 +149,9 @@ impl Reradiation {
                 ));
             }
             let o = o as usize;
+            if std::mem::replace(&mut seen[o], true) {
+                return Err(format!("line {no}: emission wavelength {lo} appears twice"));
+            }
             for i in 0..n_ex {
                 let x = v[i + 1];
                 if !x.is_finite() {
@@ -109,93 +166,161 @@ impl Reradiation {
         if rows_seen != n_em {
             return Err(format!("expected {n_em} emission rows, found {rows_seen}"));
         }
-        Ok(Self::from_matrix(em_lo, ex_lo, step, n_em, n_ex, d, domain))
-    }
-
-    fn from_matrix(
-        em_lo: f32,
-        ex_lo: f32,
-        step: f32,
-        n_em: usize,
-        n_ex: usize,
-        d: Vec<f32>,
-        domain: Domain,
-    ) -> Self {
-        let mut m = Reradiation {
+        Ok(BfcMatrix {
             em_lo,
             ex_lo,
             step,
             n_em,
             n_ex,
             d,
+        })
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Reradiation {
+    m: BfcMatrix,
+    domain: Domain,
+    /// Per excitation column: Σ_o D[o][i]·w_o/Δλ (∫ρ dλo) and the CDF over o.
+    col_total: Vec<f32>,
+    col_cdf: Vec<Vec<f32>>,
+    /// Per emission row: ∫ρ dλi and the CDF over i.
+    row_total: Vec<f32>,
+    row_cdf: Vec<Vec<f32>>,
+}
+
+impl Reradiation {
+    /// Parse and clean a BFC-450 file ([`BfcMatrix::parse`]) and build the sampling tables.
+    pub fn parse_bfc(text: &str, domain: Domain) -> Result<Self, String> {
+        Ok(Self::new(BfcMatrix::parse(text)?, domain))
+    }
+
+    /// The rendering tables of a cleaned matrix: per-column and per-row totals and CDFs.
+    pub fn new(m: BfcMatrix, domain: Domain) -> Self {
+        let (n_em, n_ex, step) = (m.n_em, m.n_ex, m.step);
+        let mut r = Reradiation {
+            m,
             domain,
             col_total: vec![],
             col_cdf: vec![],
             row_total: vec![],
             row_cdf: vec![],
         };
-        let em_w: Vec<f32> = (0..n_em)
-            .map(|o| m.cell_width(em_lo + o as f32 * step))
-            .collect();
-        let ex_w: Vec<f32> = (0..n_ex)
-            .map(|i| m.cell_width(ex_lo + i as f32 * step))
-            .collect();
+        let em_w: Vec<f32> = (0..n_em).map(|o| r.cell_width(r.m.em(o))).collect();
+        let ex_w: Vec<f32> = (0..n_ex).map(|i| r.cell_width(r.m.ex(i))).collect();
         for i in 0..n_ex {
-            let w: Vec<f32> = (0..n_em).map(|o| m.off(o, i) * em_w[o] / step).collect();
+            let w: Vec<f32> = (0..n_em).map(|o| r.m.off(o, i) * em_w[o] / step).collect();
             let (t, c) = cdf(&w);
-            m.col_total.push(t);
-            m.col_cdf.push(c);
+            r.col_total.push(t);
+            r.col_cdf.push(c);
         }
         for o in 0..n_em {
-            let w: Vec<f32> = (0..n_ex).map(|i| m.off(o, i) * ex_w[i] / step).collect();
+            let w: Vec<f32> = (0..n_ex).map(|i| r.m.off(o, i) * ex_w[i] / step).collect();
             let (t, c) = cdf(&w);
-            m.row_total.push(t);
-            m.row_cdf.push(c);
+            r.row_total.push(t);
+            r.row_cdf.push(c);
         }
-        m
+        r
     }
 
-    /// Off-diagonal entry (zero on the diagonal cell).
-    #[inline]
-    fn off(&self, o: usize, i: usize) -> f32 {
-        let lo = self.em_lo + o as f32 * self.step;
-        let li = self.ex_lo + i as f32 * self.step;
-        if (lo - li).abs() < 1e-3 {
-            0.0
-        } else {
-            self.d[o * self.n_ex + i]
-        }
+    /// The cleaned matrix.
+    pub fn matrix(&self) -> &BfcMatrix {
+        &self.m
     }
 
     fn cell_width(&self, center: f32) -> f32 {
-        let lo = (center - 0.5 * self.step).max(self.domain.min);
-        let hi = (center + 0.5 * self.step).min(self.domain.max);
+        let lo = (center - 0.5 * self.m.step).max(self.domain.min);
+        let hi = (center + 0.5 * self.m.step).min(self.domain.max);
         (hi - lo).max(0.0)
     }
 
     #[inline]
     fn em_index(&self, l: f32) -> Option<usize> {
-        let f = ((l - self.em_lo) / self.step + 0.5).floor();
-        (f >= 0.0 && (f as usize) < self.n_em && self.domain.contains(l)).then_some(f as usize)
+        let f = ((l - self.m.em_lo) / self.m.step + 0.5).floor();
+        (f >= 0.0 && (f as usize) < self.m.n_em && self.domain.contains(l)).then_some(f as usize)
     }
     #[inline]
     fn ex_index(&self, l: f32) -> Option<usize> {
-        let f = ((l - self.ex_lo) / self.step + 0.5).floor();
-        (f >= 0.0 && (f as usize) < self.n_ex && self.domain.contains(l)).then_some(f as usize)
+        let f = ((l - self.m.ex_lo) / self.m.step + 0.5).floor();
+        (f >= 0.0 && (f as usize) < self.m.n_ex && self.domain.contains(l)).then_some(f as usize)
     }
 
     /// Sample within cell `k` of a grid starting at `lo`, clipped to the domain.
     fn sample_in_cell(&self, lo: f32, k: usize, u: f32) -> f32 {
-        let c = lo + k as f32 * self.step;
-        let a = (c - 0.5 * self.step).max(self.domain.min);
-        let b = (c + 0.5 * self.step).min(self.domain.max);
+        let c = lo + k as f32 * self.m.step;
+        let a = (c - 0.5 * self.m.step).max(self.domain.min);
+        let b = (c + 0.5 * self.m.step).min(self.domain.max);
         (a + u * (b - a)).min(b)
     }
 
     /// Dimensions (emission rows, excitation columns).
-    pub fn shape(&self) -> (usize, usize) {
-        (self.n_em, self.n_ex)
+    /// Bytes it renders with: the matrix, the per-column and per-row CDFs and totals.
+    pub fn render_bytes(&self) -> usize {
+        let cdfs: usize = self.col_cdf.iter().chain(&self.row_cdf).map(Vec::len).sum();
+        std::mem::size_of::<Self>()
+            + 4 * (self.m.d.len() + cdfs + self.col_total.len() + self.row_total.len())
     }
+
+    pub fn shape(&self) -> (usize, usize) {
+        (self.m.n_em, self.m.n_ex)
+    }
+}
+
+/// Largest number of rows or columns a BFC header may announce.
+pub const MAX_BFC_CELLS: usize = 1000;
+
+/// Check a BFC header `em_lo em_hi step n_ex ex_lo ex_step` before anything is allocated from
+/// it; returns (n_ex, n_em). Errors name the field.
+fn check_header(h: &[f32]) -> Result<(usize, usize), String> {
+    const NAMES: [&str; 6] = ["em_lo", "em_hi", "step", "n_ex", "ex_lo", "ex_step"];
+    if let Some(k) = h.iter().position(|x| !x.is_finite()) {
+        return Err(format!(
+            "field {}: {} is not a finite number",
+            NAMES[k], h[k]
+        ));
+    }
+    for k in [0, 1, 4] {
+        if !(0.0..=1e5).contains(&h[k]) {
+            return Err(format!(
+                "field {}: {} nm is not in [0, 1e5]",
+                NAMES[k], h[k]
+            ));
+        }
+    }
+    let (em_lo, em_hi, step, n_ex, ex_step) = (h[0], h[1], h[2], h[3], h[5]);
+    if !(step > 0.0 && step <= 1e3) {
+        return Err(format!("field step: {step} nm is not in (0, 1000]"));
+    }
+    if (step - ex_step).abs() > 1e-6 {
+        return Err(format!("field ex_step: {ex_step} differs from step {step}"));
+    }
+    if n_ex.fract() != 0.0 || !(1.0..=MAX_BFC_CELLS as f32).contains(&n_ex) {
+        return Err(format!(
+            "field n_ex: {n_ex} is not a whole number in 1..={MAX_BFC_CELLS}"
+        ));
+    }
+    let rows = (em_hi - em_lo) / step;
+    if !(0.0..MAX_BFC_CELLS as f32).contains(&rows) || (rows - rows.round()).abs() > 1e-3 {
+        return Err(format!(
+            "fields em_lo, em_hi: [{em_lo}, {em_hi}] is not 1..={MAX_BFC_CELLS} rows of {step} nm"
+        ));
+    }
+    Ok((n_ex as usize, rows.round() as usize + 1))
+}
+
+/// Linear interpolation of values tabulated at lo + k·step (k < n), zero outside the table.
+#[inline]
+pub(crate) fn lerp_on_grid(lo: f32, step: f32, n: usize, v: impl Fn(usize) -> f32, l: f32) -> f32 {
+    let f = (l - lo) / step;
+    if !(f >= 0.0 && f <= (n - 1) as f32) {
+        return 0.0;
+    }
+    if n == 1 {
+        return v(0);
+    }
+    let o = (f as usize).min(n - 2);
+    let t = f - o as f32;
+    v(o) * (1.0 - t) + v(o + 1) * t
 }
 
 /// Total and normalised CDF of non-negative weights.
@@ -231,24 +356,19 @@ impl Bbrrdf for Reradiation {
         if !self.domain.contains(l) {
             return 0.0;
         }
-        let f = (l - self.em_lo) / self.step;
-        if f < 0.0 || f > (self.n_em - 1) as f32 {
-            return 0.0;
-        }
-        let o = (f as usize).min(self.n_em - 2);
-        let t = f - o as f32;
-        let diag = |o: usize| {
-            let li = self.em_lo + o as f32 * self.step;
-            let i = ((li - self.ex_lo) / self.step).round() as usize;
-            self.d[o * self.n_ex + i]
-        };
-        diag(o) * (1.0 - t) + diag(o + 1) * t
+        lerp_on_grid(
+            self.m.em_lo,
+            self.m.step,
+            self.m.n_em,
+            |o| self.m.reflectance(o),
+            l,
+        )
     }
     /// ρ(λi→λo) = D[o][i] / Δλ.
     #[inline]
     fn kernel(&self, l_in: f32, l_out: f32) -> f32 {
         match (self.em_index(l_out), self.ex_index(l_in)) {
-            (Some(o), Some(i)) => self.off(o, i) / self.step,
+            (Some(o), Some(i)) => self.m.off(o, i) / self.m.step,
             _ => 0.0,
         }
     }
@@ -287,11 +407,11 @@ impl Bbrrdf for Reradiation {
         };
         let (cdf, total, lo) = match side {
             PathSide::Light => match self.ex_index(l) {
-                Some(i) => (&self.col_cdf[i], self.col_total[i], self.em_lo),
+                Some(i) => (&self.col_cdf[i], self.col_total[i], self.m.em_lo),
                 None => return none,
             },
             PathSide::Camera => match self.em_index(l) {
-                Some(o) => (&self.row_cdf[o], self.row_total[o], self.ex_lo),
+                Some(o) => (&self.row_cdf[o], self.row_total[o], self.m.ex_lo),
                 None => return none,
             },
         };
@@ -364,7 +484,7 @@ mod tests {
     fn parses_and_cleans_rit_file() {
         let m = Reradiation::parse_bfc(GOLFYE, DEFAULT_DOMAIN).unwrap();
         assert_eq!(m.shape(), (41, 49));
-        assert!(m.d.iter().all(|&x| x >= 0.0));
+        assert!(m.m.d.iter().all(|&x| x >= 0.0));
         // Nothing below the diagonal survives.
         assert_eq!(m.kernel(500.0, 450.0), 0.0);
         // Diagonal at 380 nm is the reflectance 0.313414 of the file.
@@ -372,6 +492,39 @@ mod tests {
         // The yellow golf ball fluoresces: UV excitation shifts into the visible.
         assert!(m.is_fluorescent());
         assert!(m.fluorescence_probability_light(360.0) > 0.5);
+    }
+
+    /// Headers are checked before anything is allocated from them, and errors name the field.
+    #[test]
+    fn absurd_headers_are_refused_by_field() {
+        let header = "380\t780\t10\t49\t300\t10";
+        for (bad, field) in [
+            ("nan\t780\t10\t49\t300\t10", "em_lo"),
+            ("380\tinf\t10\t49\t300\t10", "em_hi"),
+            ("380\t1e30\t10\t49\t300\t10", "em_hi"),
+            ("380\t780\t10\t1e9\t300\t10", "n_ex"),
+            ("380\t780\t10\t48.5\t300\t10", "n_ex"),
+            ("380\t780\t0\t49\t300\t0", "step"),
+            ("380\t780\t1e-7\t49\t300\t1e-7", "rows of"),
+            ("380\t780\t10\t49\t300\t5", "ex_step"),
+            ("780\t380\t10\t49\t300\t10", "em_hi"),
+            ("380\t99999\t0.001\t49\t300\t0.001", "em_hi"),
+        ] {
+            assert!(GOLFYE.contains(header));
+            let e = BfcMatrix::parse(&GOLFYE.replacen(header, bad, 1)).unwrap_err();
+            assert!(e.contains("header") && e.contains(field), "{bad}: {e}");
+        }
+        // A repeated emission row is not a complete matrix.
+        let rows: Vec<&str> = GOLFYE.lines().collect();
+        let r0 = rows.iter().position(|l| l.starts_with("380\t-")).unwrap();
+        let dup = GOLFYE.replacen(rows[r0 + 1], rows[r0], 1);
+        assert!(BfcMatrix::parse(&dup).unwrap_err().contains("twice"));
+    }
+
+    #[test]
+    fn to_bfc_round_trips() {
+        let m = BfcMatrix::parse(GOLFYE).unwrap();
+        assert_eq!(BfcMatrix::parse(&m.to_bfc("round trip")).unwrap(), m);
     }
 
     #[test]

@@ -6,6 +6,7 @@ use super::error::from_json_value;
 use super::format::{
     self, CameraDesc, EmissionDesc, FovAxis, MaterialDesc, ShapeDesc, ShapeGeometry,
 };
+use super::gmm;
 use super::lights::{AreaLight, LightSet, LightShape};
 use super::media;
 use super::spectra::SpectrumContext;
@@ -267,6 +268,23 @@ fn material(
                 )
             })?;
             Material::Reradiation(m)
+        }
+        MaterialDesc::ReradiationGmm {
+            file,
+            bfc,
+            components,
+            method,
+            seed,
+        } => {
+            let src = gmm::GmmSource {
+                file,
+                bfc,
+                components,
+                method,
+                seed,
+            };
+            let f = gmm::load(ctx.file, &ctx.dir, base, src, warnings)?;
+            Material::ReradiationGmm(crate::material::ReradiationGmm::new(&f, domain))
         }
     })
 }

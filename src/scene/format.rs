@@ -100,6 +100,20 @@ pub enum MaterialDesc {
     Reradiation {
         file: String,
     },
+    /// A Gaussian-mixture reradiation model (Hua 2022): a fitted model `file`, or a `bfc`
+    /// matrix fitted at load time (cached).
+    ReradiationGmm {
+        #[serde(default)]
+        file: Option<String>,
+        #[serde(default)]
+        bfc: Option<String>,
+        #[serde(default)]
+        components: Option<usize>,
+        #[serde(default)]
+        method: Option<crate::material::mixture::FitMethod>,
+        #[serde(default)]
+        seed: Option<u64>,
+    },
 }
 
 /// A participating medium, by its `type`; spectra, the phase function and the fluorophore are

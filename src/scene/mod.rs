@@ -5,6 +5,7 @@
 mod build;
 pub mod error;
 mod format;
+mod gmm;
 pub mod lights;
 pub mod media;
 pub mod spectra;

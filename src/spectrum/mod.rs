@@ -3,8 +3,10 @@
 
 pub mod bins;
 pub mod cie;
+pub mod colorimetry;
 pub mod hero;
 pub mod lanes;
+pub mod normal;
 pub mod sampling;
 
 pub use bins::BinGrid;

@@ -6,7 +6,7 @@
 pub mod ray_sets;
 
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use stokes::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
 use stokes::scene::Scene;
 
@@ -193,4 +193,18 @@ pub fn media_scenes(size: u32) -> Vec<(String, Scene)> {
             scene.has_media.then_some((stem, scene))
         })
         .collect()
+}
+
+/// A fresh temporary folder `stokes-<tag>-<pid>-<nanoseconds>`.
+pub fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "stokes-{tag}-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
 }

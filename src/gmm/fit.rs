@@ -1,0 +1,94 @@
+//! `stokes gmm fit`: fit one BFC file, or every BFC file of a folder, and write model files
+//! (docs/gmm.md).
+
+use crate::Error;
+use crate::film::output::write_atomic;
+use crate::material::mixture::file::sha256_hex;
+use crate::material::mixture::{FitOptions, GmmFile, fit_matrix};
+use crate::material::reradiation::BfcMatrix;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// One fitted file.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    pub input: PathBuf,
+    pub output: PathBuf,
+    pub model: GmmFile,
+}
+
+/// Read, clean and fit one BFC file; the model's `source` names it.
+pub fn fit_file(path: &Path, opt: &FitOptions) -> Result<GmmFile, Error> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| Error::input(format!("cannot read '{}': {e}", path.display())))?;
+    let m = std::str::from_utf8(&bytes)
+        .map_err(|e| e.to_string())
+        .and_then(BfcMatrix::parse)
+        .map_err(|m| Error::input(format!("malformed BFC file '{}': {m}", path.display())))?;
+    let mut f = fit_matrix(&m, opt)
+        .map_err(|m| Error::input(format!("cannot fit '{}': {m}", path.display())))?;
+    f.source.file = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    f.source.sha256 = sha256_hex(&bytes);
+    Ok(f)
+}
+
+/// Fit `input` (a BFC file, or a folder of them) and write the models: to `out` for a file (or
+/// into `out` when it is an existing folder), or as `out/<STEM>.json` for a folder. Files are
+/// fitted in parallel under a progress bar; a file that fails is named and the others are
+/// still written.
+pub fn fit(input: &Path, opt: &FitOptions, out: &Path) -> Result<Vec<Fitted>, Error> {
+    let files = if input.is_dir() {
+        super::evaluate::files_with_extension(input, "bfc", "BFC matrix")?
+    } else {
+        vec![input.to_path_buf()]
+    };
+    let into_folder = input.is_dir() || out.is_dir();
+    let target = |f: &Path| -> PathBuf {
+        if into_folder {
+            let stem = f.file_stem().unwrap_or_default().to_string_lossy();
+            out.join(format!("{stem}.json"))
+        } else {
+            out.to_path_buf()
+        }
+    };
+    let bar = if files.len() > 1 {
+        crate::experiment::progress::bar(files.len() as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    let results: Vec<Result<Fitted, Error>> = files
+        .par_iter()
+        .map(|f| {
+            let model = fit_file(f, opt)?;
+            let output = target(f);
+            write_atomic(&output, |tmp| {
+                std::fs::write(tmp, model.to_json())
+                    .map_err(|e| format!("cannot write '{}': {e}", output.display()))
+            })
+            .map_err(Error::runtime)?;
+            bar.inc(1);
+            Ok(Fitted {
+                input: f.clone(),
+                output,
+                model,
+            })
+        })
+        .collect();
+    bar.finish_and_clear();
+    let (ok, failed): (Vec<_>, Vec<_>) = results.into_iter().partition(|r| r.is_ok());
+    if let Some(first) = failed
+        .into_iter()
+        .map(|r| r.unwrap_err())
+        .reduce(|a, b| Error {
+            kind: a.kind,
+            message: format!("{}\n{}", a.message, b.message),
+        })
+    {
+        return Err(first);
+    }
+    Ok(ok.into_iter().map(|r| r.unwrap()).collect())
+}

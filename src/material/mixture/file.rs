@@ -1,0 +1,367 @@
+//! The JSON file of a fitted model (`stokes gmm fit -o OUT`; docs/gmm.md describes it).
+//!
+//! Units settle the factor of ten between a 10-nm matrix and a per-nm density: the mixture p is
+//! a density per nm² over (λi, λo) in nm, and the kernel it stands for, ρ(λi → λo) = S·p per
+//! nm of excitation (Hua eq. 3), is the matrix's off-diagonal entry divided by its step
+//! (D[o][i] = Δλ·ρ, docs/design.md §2). S is therefore in nm: the matrix's energy
+//! ∬ρ = Σ D·Δλ over the mixture's mass on the measured support above the diagonal (eq. 5).
+
+use super::{Component, ConditionalMixture, FitOptions, conditional::MAX_COMPONENTS};
+use crate::material::reradiation::{BfcMatrix, lerp_on_grid};
+use crate::spectrum::Domain;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+/// The format tag of version 1.
+pub const FORMAT: &str = "stokes-gmm-1";
+
+/// A fitted reradiation model as stored on disk.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GmmFile {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// The measured matrix that was fitted.
+    pub source: Source,
+    /// How it was fitted.
+    pub fit: FitInfo,
+    /// The source's wavelength grid: the measured support is the grid's cells (±step/2).
+    pub grid: Grid,
+    /// The measured reflectance (the matrix's diagonal), one value per emission row.
+    pub reflectance: Vec<f32>,
+    /// S of Hua eq. 3, nm: ρ(λi → λo) = S·p(λi, λo).
+    pub scale: f64,
+    /// The mixture p over (λi, λo); empty for a matrix without fluorescence.
+    pub components: Vec<Component>,
+}
+
+/// Where a model came from.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Source {
+    /// The BFC file's name as given to the fit.
+    pub file: String,
+    /// SHA-256 of the BFC file's bytes, hex.
+    pub sha256: String,
+}
+
+/// The settings and outcome of a fit.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FitInfo {
+    pub options: FitOptions,
+    pub iterations: usize,
+    /// Mean log-likelihood per unit weight (EM) or lower bound (Bayes) at the end.
+    pub log_likelihood: f64,
+    pub converged: bool,
+}
+
+/// A BFC grid: emission rows from `em_lo`, excitation columns from `ex_lo`, one step.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    pub em_lo: f32,
+    pub ex_lo: f32,
+    pub step: f32,
+    pub n_em: usize,
+    pub n_ex: usize,
+}
+
+/// Largest grid dimension accepted from a file.
+pub const MAX_GRID: usize = 1000;
+
+impl Grid {
+    pub fn of(m: &BfcMatrix) -> Grid {
+        Grid {
+            em_lo: m.em_lo,
+            ex_lo: m.ex_lo,
+            step: m.step,
+            n_em: m.n_em,
+            n_ex: m.n_ex,
+        }
+    }
+    /// The measured support of λi: the excitation cells.
+    pub fn ex_support(&self) -> (f64, f64) {
+        let h = 0.5 * self.step as f64;
+        let lo = self.ex_lo as f64;
+        (lo - h, lo + (self.n_ex as f64 - 1.0) * self.step as f64 + h)
+    }
+    /// The measured support of λo: the emission cells.
+    pub fn em_support(&self) -> (f64, f64) {
+        let h = 0.5 * self.step as f64;
+        let lo = self.em_lo as f64;
+        (lo - h, lo + (self.n_em as f64 - 1.0) * self.step as f64 + h)
+    }
+    fn check(&self) -> Result<(), String> {
+        let ok = |x: f32| x.is_finite() && (0.0..=1e5).contains(&x);
+        if !ok(self.em_lo) || !ok(self.ex_lo) {
+            return Err("grid: em_lo and ex_lo must be wavelengths in [0, 1e5] nm".into());
+        }
+        if !(self.step.is_finite() && self.step > 0.0 && self.step <= 1e3) {
+            return Err(format!("grid.step: {} is not in (0, 1000] nm", self.step));
+        }
+        for (n, name) in [(self.n_em, "n_em"), (self.n_ex, "n_ex")] {
+            if n == 0 || n > MAX_GRID {
+                return Err(format!("grid.{name}: {n} is not in 1..={MAX_GRID}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl GmmFile {
+    /// Parse and validate a model file; errors name the field and what is wrong.
+    pub fn parse(text: &str) -> Result<GmmFile, String> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let f: GmmFile = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            if path == "." {
+                inner.to_string()
+            } else {
+                format!("{path}: {inner}")
+            }
+        })?;
+        f.check()?;
+        Ok(f)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if self.format != FORMAT {
+            return Err(format!(
+                "format: '{}' is not '{FORMAT}' (not a stokes GMM file, or a newer version)",
+                self.format
+            ));
+        }
+        self.grid.check()?;
+        if self.reflectance.len() != self.grid.n_em {
+            return Err(format!(
+                "reflectance: {} values, but grid.n_em is {}",
+                self.reflectance.len(),
+                self.grid.n_em
+            ));
+        }
+        if let Some(i) = self
+            .reflectance
+            .iter()
+            .position(|r| !r.is_finite() || *r < 0.0)
+        {
+            return Err(format!(
+                "reflectance[{i}]: {} is not a finite non-negative number",
+                self.reflectance[i]
+            ));
+        }
+        if !(self.scale.is_finite() && self.scale >= 0.0) {
+            return Err(format!(
+                "scale: {} is not finite and non-negative",
+                self.scale
+            ));
+        }
+        if self.components.len() > MAX_COMPONENTS {
+            return Err(format!(
+                "components: {} components, at most {MAX_COMPONENTS} are supported",
+                self.components.len()
+            ));
+        }
+        if let Some(k) = self.components.iter().position(|c| !c.is_valid()) {
+            return Err(format!(
+                "components[{k}]: the weight must be finite and non-negative, the mean finite and \
+                 the covariance symmetric positive definite (found {:?})",
+                self.components[k]
+            ));
+        }
+        let w: f64 = self.components.iter().map(|c| c.weight).sum();
+        if !self.components.is_empty() && (w - 1.0).abs() > 1e-6 {
+            return Err(format!("components: the weights sum to {w}, not 1"));
+        }
+        Ok(())
+    }
+
+    /// The file's text (pretty JSON).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a GMM file serialises")
+    }
+
+    /// The conditional mixtures of this model, restricted to the measured support and `domain`.
+    pub fn conditional(&self, domain: Domain) -> ConditionalMixture {
+        let clip = |(a, b): (f64, f64)| (a.max(domain.min as f64), b.min(domain.max as f64));
+        ConditionalMixture::new(
+            &self.components,
+            self.scale,
+            clip(self.grid.ex_support()),
+            clip(self.grid.em_support()),
+        )
+    }
+
+    /// The matrix this model evaluates to on its source's grid: the stored reflectance on the
+    /// diagonal, Δλ · S · p(λi, λo) at every cell centre with λo > λi, zero elsewhere (Hua
+    /// §7.3).
+    pub fn to_matrix(&self) -> BfcMatrix {
+        self.to_matrix_at(self.grid.step)
+            .expect("the source grid has at most MAX_GRID cells per axis")
+    }
+
+    /// The same on a grid of cells of side `step` nm covering the measured support, with the
+    /// reflectance interpolated linearly onto its diagonal: `step` = 1 gives the dense matrix
+    /// that renders like the mixture itself, up to the cells that straddle the diagonal.
+    pub fn to_matrix_at(&self, step: f32) -> Result<BfcMatrix, String> {
+        let g = self.grid;
+        let cells = |(a, b): (f64, f64)| -> Result<usize, String> {
+            let n = (b - a) / step as f64;
+            if !(step.is_finite() && step > 0.0) || (n - n.round()).abs() > 1e-6 {
+                return Err(format!(
+                    "step: {step} nm does not divide the measured support [{a}, {b}] nm"
+                ));
+            }
+            let n = n.round() as usize;
+            if n == 0 || n > MAX_GRID {
+                return Err(format!(
+                    "step: {step} nm gives {n} cells, at most {MAX_GRID}"
+                ));
+            }
+            Ok(n)
+        };
+        let (n_em, n_ex) = (cells(g.em_support())?, cells(g.ex_support())?);
+        let mut m = BfcMatrix {
+            em_lo: (g.em_support().0 + 0.5 * step as f64) as f32,
+            ex_lo: (g.ex_support().0 + 0.5 * step as f64) as f32,
+            step,
+            n_em,
+            n_ex,
+            d: vec![0.0; n_em * n_ex],
+        };
+        let cond =
+            ConditionalMixture::new(&self.components, self.scale, g.ex_support(), g.em_support());
+        let r = &self.reflectance;
+        for o in 0..n_em {
+            for i in 0..n_ex {
+                let (lo, li) = (m.em(o), m.ex(i));
+                m.d[o * n_ex + i] = if m.is_diagonal(o, i) {
+                    lerp_on_grid(g.em_lo, g.step, r.len(), |k| r[k], lo)
+                } else {
+                    (step as f64 * cond.kernel(li as f64, lo as f64)) as f32
+                };
+            }
+        }
+        Ok(m)
+    }
+}
+
+/// SHA-256 of bytes, hex (the `source.sha256` of a model and the fit cache's key).
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::mixture::{FitMethod, fit_matrix};
+
+    fn model() -> GmmFile {
+        let m = BfcMatrix::parse(include_str!("../../../data/bispectral/GOLFYE.BFC")).unwrap();
+        let mut f = fit_matrix(&m, &FitOptions::new(3, FitMethod::Em, 0)).unwrap();
+        f.source.file = "GOLFYE.BFC".into();
+        f
+    }
+
+    /// The source grid gives back the stored reflectance; a 1 nm grid keeps the model's energy
+    /// up to the half cells along the diagonal.
+    #[test]
+    fn dense_matrices_of_a_model() {
+        let f = model();
+        let m = f.to_matrix();
+        assert_eq!((m.n_em, m.n_ex, m.em_lo, m.ex_lo), (41, 49, 380.0, 300.0));
+        assert!((0..41).all(|o| m.reflectance(o) == f.reflectance[o]));
+        let fine = f.to_matrix_at(1.0).unwrap();
+        assert_eq!((fine.n_em, fine.n_ex, fine.em_lo), (410, 490, 375.5));
+        let energy = |m: &BfcMatrix| -> f64 {
+            let mut s = 0.0;
+            for o in 0..m.n_em {
+                for i in 0..m.n_ex {
+                    s += m.off(o, i) as f64 * m.step as f64;
+                }
+            }
+            s
+        };
+        let g = f.grid;
+        let want = f.scale
+            * ConditionalMixture::new(&f.components, 1.0, g.ex_support(), g.em_support()).mass();
+        let e = energy(&fine);
+        eprintln!("1 nm matrix: {e} vs the model's {want}");
+        assert!((e / want - 1.0).abs() < 5e-3, "{e} vs {want}");
+        assert!(f.to_matrix_at(3.0).unwrap_err().contains("step"));
+        assert!(f.to_matrix_at(0.125).unwrap_err().contains("at most"));
+    }
+
+    #[test]
+    fn round_trips_through_json() {
+        let f = model();
+        assert_eq!(GmmFile::parse(&f.to_json()).unwrap(), f);
+    }
+
+    /// Every malformed model names its field.
+    #[test]
+    fn malformed_files_name_the_field() {
+        let f = model();
+        let v: serde_json::Value = serde_json::from_str(&f.to_json()).unwrap();
+        let edit = |path: &[&str], x: serde_json::Value| {
+            let mut v = v.clone();
+            let mut p = &mut v;
+            for k in &path[..path.len() - 1] {
+                p = match k.parse::<usize>() {
+                    Ok(i) => &mut p[i],
+                    Err(_) => &mut p[*k],
+                };
+            }
+            let last = path[path.len() - 1];
+            match last.parse::<usize>() {
+                Ok(i) => p[i] = x,
+                Err(_) => p[last] = x,
+            }
+            GmmFile::parse(&v.to_string()).unwrap_err()
+        };
+        use serde_json::json;
+        let cases = [
+            (edit(&["format"], json!("other")), "format"),
+            (edit(&["scale"], json!(-1.0)), "scale"),
+            (edit(&["scale"], json!("x")), "scale"),
+            (
+                edit(&["grid", "n_em"], json!(1_000_000_000u64)),
+                "grid.n_em",
+            ),
+            (edit(&["grid", "step"], json!(0.0)), "grid.step"),
+            (edit(&["reflectance", "3"], json!(-0.5)), "reflectance[3]"),
+            (
+                edit(&["components", "0", "weight"], json!(-0.1)),
+                "components[0]",
+            ),
+            (
+                edit(&["components", "1", "cov", "0", "1"], json!(1e6)),
+                "components[1]",
+            ),
+            (
+                edit(&["components", "0", "mean", "0"], json!(null)),
+                "components[0].mean[0]",
+            ),
+            (
+                edit(&["components", "0", "weight"], json!(0.9)),
+                "components",
+            ),
+        ];
+        for (e, field) in cases {
+            assert!(e.contains(field), "{field}: {e}");
+        }
+        let mut g = f.clone();
+        g.reflectance.pop();
+        assert!(
+            GmmFile::parse(&g.to_json())
+                .unwrap_err()
+                .contains("reflectance")
+        );
+        assert!(GmmFile::parse("{").is_err());
+        assert!(GmmFile::parse("").is_err());
+    }
+}

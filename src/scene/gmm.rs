@@ -1,0 +1,152 @@
+//! The `reradiation-gmm` material's model: a fitted file, or a BFC matrix fitted at load time
+//! and cached by the SHA-256 of the matrix file and the fit settings.
+//!
+//! The cache folder is `$STOKES_CACHE_DIR`, else `$XDG_CACHE_HOME/stokes`, else
+//! `$HOME/.cache/stokes`; its `gmm/` subfolder holds one model file per key. A cache entry that
+//! does not parse, or whose source hash or settings differ, is fitted again and replaced. A
+//! cache that cannot be written costs only a warning.
+
+use super::InputError;
+use crate::film::output::write_atomic;
+use crate::material::mixture::file::sha256_hex;
+use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
+use crate::material::reradiation::BfcMatrix;
+use std::path::{Path, PathBuf};
+
+/// Components fitted when a scene gives a `bfc` without `components` (Hua §7.4's advice).
+pub const DEFAULT_COMPONENTS: usize = 8;
+
+/// The JSON fields of a `reradiation-gmm` material.
+pub struct GmmSource {
+    pub file: Option<String>,
+    pub bfc: Option<String>,
+    pub components: Option<usize>,
+    pub method: Option<FitMethod>,
+    pub seed: Option<u64>,
+}
+
+/// The model of the material at JSON path `base` of scene `scene`, resolved from `dir`.
+pub fn load(
+    scene: &Path,
+    dir: &Path,
+    base: &str,
+    src: GmmSource,
+    warnings: &mut Vec<String>,
+) -> Result<GmmFile, InputError> {
+    let err = |field: &str, m: String| InputError::new(scene, format!("{base}.{field}"), m);
+    match (&src.file, &src.bfc) {
+        (Some(file), None) => {
+            for (set, name) in [
+                (src.components.is_some(), "components"),
+                (src.method.is_some(), "method"),
+                (src.seed.is_some(), "seed"),
+            ] {
+                if set {
+                    return Err(err(
+                        name,
+                        "only applies with `bfc` (a fitted `file` already has its settings)"
+                            .to_string(),
+                    ));
+                }
+            }
+            let full = dir.join(file);
+            let text = std::fs::read_to_string(&full)
+                .map_err(|e| err("file", format!("cannot read '{}': {e}", full.display())))?;
+            GmmFile::parse(&text).map_err(|m| {
+                err(
+                    "file",
+                    format!("malformed GMM file '{}': {m}", full.display()),
+                )
+            })
+        }
+        (None, Some(bfc)) => {
+            let full = dir.join(bfc);
+            let bytes = std::fs::read(&full)
+                .map_err(|e| err("bfc", format!("cannot read '{}': {e}", full.display())))?;
+            let m = std::str::from_utf8(&bytes)
+                .map_err(|e| e.to_string())
+                .and_then(BfcMatrix::parse)
+                .map_err(|m| {
+                    err(
+                        "bfc",
+                        format!("malformed BFC file '{}': {m}", full.display()),
+                    )
+                })?;
+            let opt = FitOptions::new(
+                src.components.unwrap_or(DEFAULT_COMPONENTS),
+                src.method.unwrap_or_default(),
+                src.seed.unwrap_or(0),
+            );
+            if let Some(k) = src.components
+                && !(1..=crate::material::mixture::conditional::MAX_COMPONENTS).contains(&k)
+            {
+                return Err(err(
+                    "components",
+                    format!(
+                        "{k} is not in 1..={}",
+                        crate::material::mixture::conditional::MAX_COMPONENTS
+                    ),
+                ));
+            }
+            fitted(&m, &bytes, bfc, &opt, warnings)
+                .map_err(|m| err("bfc", format!("cannot fit '{}': {m}", full.display())))
+        }
+        (Some(_), Some(_)) => Err(err(
+            "bfc",
+            "give only one of `file` (a fitted model) and `bfc` (a matrix to fit)".to_string(),
+        )),
+        (None, None) => Err(err(
+            "file",
+            "missing: give `file` (a fitted model) or `bfc` (a matrix to fit)".to_string(),
+        )),
+    }
+}
+
+/// The folder of cached fits, if the environment names one.
+fn cache_dir() -> Option<PathBuf> {
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    env("STOKES_CACHE_DIR")
+        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("stokes")))
+        .or_else(|| env("HOME").map(|d| d.join(".cache").join("stokes")))
+        .map(|d| d.join("gmm"))
+}
+
+/// The fit of `m` (file bytes `bytes`, named `name`) with `opt`, from the cache when it holds
+/// this exact fit.
+fn fitted(
+    m: &BfcMatrix,
+    bytes: &[u8],
+    name: &str,
+    opt: &FitOptions,
+    warnings: &mut Vec<String>,
+) -> Result<GmmFile, String> {
+    let hash = sha256_hex(bytes);
+    let key = sha256_hex(format!("{hash}{}", serde_json::to_string(opt).unwrap()).as_bytes());
+    let path = cache_dir().map(|d| d.join(format!("{}.json", &key[..32])));
+    if let Some(p) = &path
+        && let Ok(text) = std::fs::read_to_string(p)
+    {
+        match GmmFile::parse(&text) {
+            Ok(f) if f.source.sha256 == hash && f.fit.options == *opt => return Ok(f),
+            _ => warnings.push(format!(
+                "the cached fit '{}' is stale or damaged: fitting again",
+                p.display()
+            )),
+        }
+    }
+    let mut f = fit_matrix(m, opt)?;
+    f.source.file = name.to_string();
+    f.source.sha256 = hash;
+    if let Some(p) = &path
+        && let Err(e) = write_atomic(p, |tmp| {
+            std::fs::write(tmp, f.to_json()).map_err(|e| e.to_string())
+        })
+    {
+        warnings.push(format!("cannot cache the fit: {e}"));
+    }
+    Ok(f)
+}

@@ -1,0 +1,195 @@
+//! `stokes gmm`: fitting is deterministic, and bad input (BFC files with truncated, NaN,
+//! inconsistent or absurd headers, malformed model files, bad options) gets exit code 2 and a
+//! message naming the file and the field; nothing is written for a failed file.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const GOLFYE: &str = include_str!("../data/bispectral/GOLFYE.BFC");
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("stokes-gmm-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stokes(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn fits_are_deterministic_and_written_atomically() {
+    let d = tmpdir("determinism");
+    let bfc = d.join("GOLFYE.BFC");
+    std::fs::write(&bfc, GOLFYE).unwrap();
+    let (a, b) = (d.join("a.json"), d.join("b.json"));
+    for out in [&a, &b] {
+        let (code, stdout, err) =
+            stokes(&["gmm", "fit", s(&bfc), "--components", "4", "-o", s(out)]);
+        assert_eq!(code, 0, "{err}");
+        assert!(stdout.contains("4 components"), "{stdout}");
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // No temporary files are left next to the outputs.
+    let names: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
+    // The dense matrix of the model reads back as a BFC file.
+    let dense = d.join("dense.BFC");
+    let (code, _, err) = stokes(&["gmm", "dense", s(&a), "--step", "5", "-o", s(&dense)]);
+    assert_eq!(code, 0, "{err}");
+    let m =
+        stokes::material::reradiation::BfcMatrix::parse(&std::fs::read_to_string(&dense).unwrap())
+            .unwrap();
+    assert_eq!((m.n_em, m.n_ex, m.step), (82, 98, 5.0));
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn bad_bfc_files_name_the_file_and_field() {
+    let header = "380\t780\t10\t49\t300\t10";
+    let truncated: String = GOLFYE.lines().take(30).collect::<Vec<_>>().join("\n");
+    let cases = [
+        (
+            "nan.BFC",
+            GOLFYE.replacen(header, "nan\t780\t10\t49\t300\t10", 1),
+            "em_lo",
+        ),
+        (
+            "inf.BFC",
+            GOLFYE.replacen(header, "380\t780\t10\tinf\t300\t10", 1),
+            "n_ex",
+        ),
+        (
+            "absurd.BFC",
+            GOLFYE.replacen(header, "380\t1e30\t10\t49\t300\t10", 1),
+            "em_hi",
+        ),
+        (
+            "huge.BFC",
+            GOLFYE.replacen(header, "380\t780\t10\t1e12\t300\t10", 1),
+            "n_ex",
+        ),
+        (
+            "inconsistent.BFC",
+            GOLFYE.replacen(header, "380\t790\t10\t49\t300\t10", 1),
+            "rows",
+        ),
+        ("truncated.BFC", truncated, "rows"),
+        ("text.BFC", GOLFYE.replacen("0.313414", "x", 1), "line"),
+    ];
+    let d = tmpdir("bad-bfc");
+    for (name, text, field) in cases {
+        let f = d.join(name);
+        std::fs::write(&f, text).unwrap();
+        let out = d.join(format!("{name}.json"));
+        let (code, _, err) = stokes(&["gmm", "fit", s(&f), "-o", s(&out)]);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(field), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "{name}: an output was written");
+    }
+    // A folder with one bad file: the good one is still fitted, the bad one named.
+    let folder = d.join("folder");
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::write(folder.join("GOOD.BFC"), GOLFYE).unwrap();
+    std::fs::write(folder.join("BAD.BFC"), "BFC-450 Matrix File\n1 2 3\n").unwrap();
+    let out = d.join("out");
+    let (code, _, err) = stokes(&["gmm", "fit", s(&folder), "--components", "2", "-o", s(&out)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("BAD.BFC"), "{err}");
+    assert!(out.join("GOOD.json").exists());
+    assert!(!out.join("BAD.json").exists());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn bad_options_and_model_files_are_input_errors() {
+    let d = tmpdir("bad-options");
+    let bfc = d.join("GOLFYE.BFC");
+    std::fs::write(&bfc, GOLFYE).unwrap();
+    let out = d.join("m.json");
+    for (args, want) in [
+        (vec!["--components", "0"], "components"),
+        (vec!["--components", "33"], "components"),
+        (vec!["--tolerance=-1"], "tolerance"),
+        (vec!["--max-iterations", "0"], "max_iterations"),
+    ] {
+        let mut a = vec!["gmm", "fit", s(&bfc), "-o", s(&out)];
+        a.extend(args.iter());
+        let (code, _, err) = stokes(&a);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    let (code, _, err) = stokes(&["gmm", "fit", s(&d.join("missing.BFC")), "-o", s(&out)]);
+    assert_eq!(code, 2);
+    assert!(err.contains("missing.BFC"), "{err}");
+    let (code, _, err) = stokes(&["gmm", "eval", s(&d.join("nowhere")), "-o", s(&d)]);
+    assert_eq!(code, 2);
+    assert!(err.contains("nowhere"), "{err}");
+    // Malformed model files, through `gmm dense` and through a scene.
+    let (code, _, err) = stokes(&["gmm", "fit", s(&bfc), "--components", "2", "-o", s(&out)]);
+    assert_eq!(code, 0, "{err}");
+    let good = std::fs::read_to_string(&out).unwrap();
+    for (name, text, field) in [
+        (
+            "format.json",
+            good.replacen("stokes-gmm-1", "other", 1),
+            "format",
+        ),
+        (
+            "nan.json",
+            good.replacen("\"scale\": ", "\"scale\": -", 1),
+            "scale",
+        ),
+        (
+            "grid.json",
+            good.replacen("\"n_em\": 41", "\"n_em\": 100000000000", 1),
+            "grid.n_em",
+        ),
+        (
+            "short.json",
+            good[..good.len() / 2].to_string(),
+            "short.json",
+        ),
+    ] {
+        let f = d.join(name);
+        std::fs::write(&f, text).unwrap();
+        let (code, _, err) = stokes(&["gmm", "dense", s(&f), "-o", s(&d.join("x.BFC"))]);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(field), "{name}: {err}");
+        let scene = d.join("scene.json");
+        std::fs::write(
+            &scene,
+            format!(
+                r#"{{"camera": {{"origin": [0, 0, 3], "target": [0, 0, 0], "fov": 40, "width": 4, "height": 4}},
+                 "materials": {{"m": {{"type": "reradiation-gmm", "file": "{name}"}}}},
+                 "shapes": [{{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 1,
+                              "emission": {{"spectrum": 1}}}}]}}"#
+            ),
+        )
+        .unwrap();
+        let (code, _, err) = stokes(&["inspect", s(&scene)]);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(
+            err.contains("materials.m.file") && err.contains(field),
+            "{name}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
