@@ -193,3 +193,82 @@ fn bad_options_and_model_files_are_input_errors() {
     }
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// A `bfc` material is fitted once and cached by the file's content and the settings: a second
+/// load reuses the entry, a damaged entry is fitted again (with a warning) and replaced, and
+/// other settings or another file get their own entries.
+#[test]
+fn fits_at_load_are_cached_by_content_and_settings() {
+    let d = tmpdir("cache");
+    let cache = d.join("cache");
+    std::fs::write(d.join("GOLFYE.BFC"), GOLFYE).unwrap();
+    let scene = |components: usize| {
+        let p = d.join(format!("scene-{components}.json"));
+        std::fs::write(
+            &p,
+            format!(
+                r#"{{"camera": {{"origin": [0, 0, 3], "target": [0, 0, 0], "fov": 40, "width": 4, "height": 4}},
+                 "materials": {{"m": {{"type": "reradiation-gmm", "bfc": "GOLFYE.BFC", "components": {components}}}}},
+                 "shapes": [{{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 1,
+                              "emission": {{"spectrum": 1}}}}]}}"#
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let inspect = |p: &Path| {
+        let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
+            .args(["inspect", s(p)])
+            .env("STOKES_CACHE_DIR", &cache)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let entries = || -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(cache.join("gmm"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        v
+    };
+    let three = scene(3);
+    let (out, _) = inspect(&three);
+    assert!(out.contains("3 Gaussians"), "{out}");
+    let e = entries();
+    assert_eq!(e.len(), 1);
+    let text = std::fs::read_to_string(&e[0]).unwrap();
+    let model = stokes::material::mixture::GmmFile::parse(&text).unwrap();
+    assert_eq!(
+        model.source.sha256,
+        stokes::material::mixture::file::sha256_hex(GOLFYE.as_bytes())
+    );
+    // Reused as it is.
+    let (_, err) = inspect(&three);
+    assert!(!err.contains("cached fit"), "{err}");
+    assert_eq!(std::fs::read_to_string(&e[0]).unwrap(), text);
+    // Damaged: fitted again, with a warning, and replaced by the same fit.
+    std::fs::write(&e[0], "{ not json").unwrap();
+    let (_, err) = inspect(&three);
+    assert!(err.contains("stale or damaged"), "{err}");
+    assert_eq!(std::fs::read_to_string(&e[0]).unwrap(), text);
+    // Other settings, and the same settings on another file, are other entries.
+    inspect(&scene(2));
+    assert_eq!(entries().len(), 2);
+    std::fs::write(
+        d.join("GOLFYE.BFC"),
+        GOLFYE.replacen("0.313414", "0.3134", 1),
+    )
+    .unwrap();
+    inspect(&three);
+    assert_eq!(entries().len(), 3);
+    std::fs::remove_dir_all(&d).unwrap();
+}
