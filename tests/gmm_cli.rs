@@ -2,16 +2,15 @@
 //! inconsistent or absurd headers, malformed model files, bad options) gets exit code 2 and a
 //! message naming the file and the field; nothing is written for a failed file.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const GOLFYE: &str = include_str!("../data/bispectral/GOLFYE.BFC");
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("stokes-gmm-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir(&format!("gmm-cli-{name}"))
 }
 
 fn stokes(args: &[&str]) -> (i32, String, String) {

@@ -96,19 +96,15 @@ impl Bbrrdf for ReradiationGmm {
     /// The conditional mixture's component by `u[0]`, its truncated normal by `u[1]`; the
     /// density and kernel are those of the wavelength as rounded to f32.
     fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
-        let axis = Self::axis(side);
-        let slice = self.cond.slice(l as f64, axis);
-        match self.cond.draw(&slice, [u[0] as f64, u[1] as f64]) {
-            Some(x) => {
-                let lambda = x as f32;
-                let (li, lo) = if axis == 0 { (l, lambda) } else { (lambda, l) };
-                let kernel = self.cond.kernel(li as f64, lo as f64);
-                ShiftDraw {
-                    lambda,
-                    density: (kernel / slice.total) as f32,
-                    kernel: kernel as f32,
-                }
-            }
+        match self
+            .cond
+            .sample(l as f64, Self::axis(side), [u[0] as f64, u[1] as f64])
+        {
+            Some(d) => ShiftDraw {
+                lambda: d.lambda as f32,
+                density: d.density as f32,
+                kernel: d.kernel as f32,
+            },
             None => ShiftDraw {
                 lambda: l,
                 density: 0.0,

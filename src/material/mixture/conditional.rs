@@ -36,14 +36,12 @@ struct Prepared {
 
 /// The conditional mixture given one wavelength, ready to draw from.
 #[derive(Clone, Copy, Debug)]
-pub struct Slice {
+struct Slice {
     /// Per component: (weight, conditional mean, conditional standard deviation).
     parts: [(f64, f64, f64); MAX_COMPONENTS],
     /// ∫ρ over the interval (S times the sum of the weights).
-    pub total: f64,
+    total: f64,
     interval: (f64, f64),
-    pub known: f64,
-    pub axis: usize,
 }
 
 /// A new wavelength drawn from a conditional, with its density per nm and the kernel value.
@@ -52,8 +50,6 @@ pub struct ConditionalDraw {
     pub lambda: f64,
     pub density: f64,
     pub kernel: f64,
-    /// ∫ρ over the interval given the known wavelength (density = kernel / total).
-    pub total: f64,
 }
 
 /// The kernel ρ(λi → λo) = S·p(λi, λo) on λo > λi inside the support, and its conditionals.
@@ -174,14 +170,12 @@ impl ConditionalMixture {
     /// marginal) times its conditional's mass inside the interval (eq. 11 corrected and
     /// renormalised), the conditional mean (eq. 9) and standard deviation (eq. 12).
     #[inline]
-    pub fn slice(&self, known: f64, axis: usize) -> Slice {
+    fn slice(&self, known: f64, axis: usize) -> Slice {
         let (a, b) = self.interval(known, axis);
         let mut s = Slice {
             parts: [(0.0, 0.0, 0.0); MAX_COMPONENTS],
             total: 0.0,
             interval: (a, b),
-            known,
-            axis,
         };
         let known_ok = if axis == 0 {
             known >= self.ex.0 && known <= self.ex.1
@@ -215,7 +209,7 @@ impl ConditionalMixture {
     /// cumulative weight exceeds it), then its truncated normal by `u[1]`; `None` when the
     /// slice is empty.
     #[inline]
-    pub fn draw(&self, s: &Slice, u: [f64; 2]) -> Option<f64> {
+    fn draw(&self, s: &Slice, u: [f64; 2]) -> Option<f64> {
         if !(s.total > 0.0) {
             return None;
         }
@@ -238,10 +232,11 @@ impl ConditionalMixture {
     }
 
     /// Draw the unknown wavelength given the known one on `axis` (0: λi known, draw λo; 1: λo
-    /// known, draw λi), with its density and kernel value.
+    /// known, draw λi), rounded to f32 as the renderer carries it, with the density and kernel
+    /// of that rounded wavelength.
     pub fn sample(&self, known: f64, axis: usize, u: [f64; 2]) -> Option<ConditionalDraw> {
         let s = self.slice(known, axis);
-        let lambda = self.draw(&s, u)?;
+        let lambda = self.draw(&s, u)? as f32 as f64;
         let (li, lo) = if axis == 0 {
             (known, lambda)
         } else {
@@ -252,7 +247,6 @@ impl ConditionalMixture {
             lambda,
             density: kernel / s.total,
             kernel,
-            total: s.total,
         })
     }
 
