@@ -106,23 +106,120 @@ pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, Error> {
     Ok(scene)
 }
 
+use crate::experiment::config::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
+/// Largest `--exposure` magnitude, stops.
+pub const MAX_EXPOSURE: f32 = 64.0;
+
 pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), Error> {
-    if a.spp == 0 {
-        return Err(Error::input("--spp must be at least 1"));
-    }
-    if let Some(t) = a.time_limit
-        && !(t > 0.0 && t.is_finite())
-    {
+    if a.spp == 0 || a.spp > MAX_SPP {
         return Err(Error::input(format!(
-            "--time-limit must be a positive number of seconds, got {t}"
+            "--spp must be 1–{MAX_SPP}, got {}",
+            a.spp
         )));
     }
-    if a.threads == Some(0) {
-        return Err(Error::input("--threads must be at least 1"));
+    if let Some(t) = a.time_limit
+        && !(t > 0.0 && t <= MAX_SECONDS)
+    {
+        return Err(Error::input(format!(
+            "--time-limit must be a positive, finite number of seconds (at most {MAX_SECONDS:e}), got {t}"
+        )));
+    }
+    if let Some(n) = a.threads
+        && !(1..=MAX_THREADS).contains(&n)
+    {
+        return Err(Error::input(format!(
+            "--threads must be 1–{MAX_THREADS}, got {n}"
+        )));
+    }
+    if !(a.exposure.abs() <= MAX_EXPOSURE) {
+        return Err(Error::input(format!(
+            "--exposure must be a finite number of stops in [-{MAX_EXPOSURE}, {MAX_EXPOSURE}], got {}",
+            a.exposure
+        )));
     }
     a.options()
         .validate()
-        .map_err(|m| Error::input(format!("option {m}")))
+        .map_err(|m| Error::input(format!("option {m}")))?;
+    check_outputs(a)
+}
+
+/// The outputs of `render`, checked before the scene is loaded: `-o` ends in `.exr` and
+/// `--png` in `.png` (the format follows the option, so the name must say it), no two outputs
+/// are the same file (after resolving `.`, `..` and links of their folders), and each one's
+/// folder exists and takes a new file. `--strategy-images` is a folder, created if missing.
+fn check_outputs(a: &RenderArgs) -> Result<(), Error> {
+    if !crate::film::output::has_extension(&a.output, "exr") {
+        return Err(Error::input(format!(
+            "-o/--output '{}': the image is written as OpenEXR, so its name must end in .exr (use --png for a PNG preview)",
+            a.output.display()
+        )));
+    }
+    if let Some(p) = &a.png
+        && !crate::film::output::has_extension(p, "png")
+    {
+        return Err(Error::input(format!(
+            "--png '{}': the name of the PNG preview must end in .png",
+            p.display()
+        )));
+    }
+    let mut outs: Vec<(&str, &Path)> = vec![("-o/--output", &a.output)];
+    outs.extend(a.png.as_deref().map(|p| ("--png", p)));
+    outs.extend(a.stats.as_deref().map(|p| ("--stats", p)));
+    let mut seen: Vec<(&str, PathBuf)> = Vec::new();
+    for (opt, p) in outs {
+        crate::film::output::probe_writable(p)
+            .map_err(|e| Error::input(format!("{opt} '{}': {e}", p.display())))?;
+        let c = canonical_output(p);
+        if let Some((other, _)) = seen.iter().find(|(_, q)| *q == c) {
+            return Err(Error::input(format!(
+                "{opt} '{}' is the same file as {other}: give each output its own path",
+                p.display()
+            )));
+        }
+        seen.push((opt, c));
+    }
+    if let Some(dir) = &a.strategy_images {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create the folder: {e}"))
+            .and_then(|()| crate::film::output::probe_writable(&dir.join("probe.exr")))
+            .map_err(|e| Error::input(format!("--strategy-images '{}': {e}", dir.display())))?;
+        let d = canonical_output(&dir.join("x"));
+        if let Some((opt, _)) = seen
+            .iter()
+            .find(|(_, q)| q.parent() == d.parent() && is_strategy_name(q))
+        {
+            return Err(Error::input(format!(
+                "--strategy-images '{}': {opt} has the name of a strategy image (s<i>_t<j>.exr) in this folder and would be replaced",
+                dir.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `p`'s file name is that of a strategy image, `s<i>_t<j>.exr`.
+fn is_strategy_name(p: &Path) -> bool {
+    let Some(n) = p.file_name().and_then(|n| n.to_str()) else {
+        return false;
+    };
+    let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+    n.strip_suffix(".exr")
+        .and_then(|n| n.strip_prefix('s'))
+        .and_then(|n| n.split_once("_t"))
+        .is_some_and(|(a, b)| digits(a) && digits(b))
+}
+
+/// An output path with its (existing) folder made canonical, so `./P` and `P` compare equal.
+fn canonical_output(p: &Path) -> PathBuf {
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    match p.file_name() {
+        Some(n) => dir.join(n),
+        None => dir,
+    }
 }
 
 pub fn render(a: &RenderArgs) -> Result<(), Error> {
@@ -187,6 +284,7 @@ pub fn stats_json(
         "rays": s.rays,
         "rays_per_second": s.rays as f64 / out.seconds.max(1e-9),
         "nan_inf_rejected": s.nan_inf_rejected,
+        "dropped_strategy_pdfs": s.dropped_strategy_pdfs,
         "paths": s.paths,
         "contributing_paths": s.contributing_paths,
         "contributing_paths_by_segments": s.contributing_by_length,
@@ -290,8 +388,11 @@ pub fn experiment(a: &ExperimentArgs) -> Result<(), Error> {
 }
 
 pub fn figures(dir: &Path) -> Result<(), Error> {
-    let run = crate::experiment::figures::resolve_run_dir(dir).map_err(Error::input)?;
-    let files = crate::experiment::figures::make_all(&run).map_err(Error::runtime)?;
+    // An interrupted run has no run.json yet: look for its marker first.
+    crate::experiment::record::check_complete(dir)?;
+    let run = crate::experiment::figures::resolve_run_dir(dir)?;
+    crate::experiment::record::check_complete(&run)?;
+    let files = crate::experiment::figures::make_all(&run)?;
     for f in files {
         println!("{}", f.display());
     }
@@ -334,16 +435,52 @@ pub struct GmmDenseArgs {
     pub output: PathBuf,
 }
 
+/// An output file of a `gmm` command, checked before any work as `render` checks its own: the
+/// name ends in `.ext` (`why` says why), the folder exists and takes a new file, and it is not
+/// the input file. Returns its canonical path.
+fn check_output_file(
+    opt: &str,
+    p: &Path,
+    ext: &str,
+    why: &str,
+    input: &Path,
+) -> Result<PathBuf, Error> {
+    if !crate::film::output::has_extension(p, ext) {
+        return Err(Error::input(format!("{opt} '{}': {why}", p.display())));
+    }
+    crate::film::output::probe_writable(p)
+        .map_err(|e| Error::input(format!("{opt} '{}': {e}", p.display())))?;
+    let c = canonical_output(p);
+    if c == canonical_output(input) {
+        return Err(Error::input(format!(
+            "{opt} '{}' is the input file '{}': give the output its own path",
+            p.display(),
+            input.display()
+        )));
+    }
+    Ok(c)
+}
+
 /// Write the dense matrix a model evaluates to, as a BFC file.
 pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
     use crate::material::mixture::GmmFile;
+    check_output_file(
+        "-o/--output",
+        &a.output,
+        "bfc",
+        "the matrix is written as a BFC file, so its name must end in .bfc (or .BFC)",
+        &a.model,
+    )?;
     let text = std::fs::read_to_string(&a.model)
         .map_err(|e| Error::input(format!("cannot read '{}': {e}", a.model.display())))?;
     let f = GmmFile::parse(&text)
         .map_err(|m| Error::input(format!("malformed GMM file '{}': {m}", a.model.display())))?;
-    let m = f
-        .to_matrix_at(a.step)
-        .map_err(|m| Error::input(format!("--{m}")))?;
+    let m = f.to_matrix_at(a.step).map_err(|m| {
+        Error::input(format!(
+            "--{m}, on the measured support of the model '{}'",
+            a.model.display()
+        ))
+    })?;
     let title = format!(
         "dense {} nm matrix of the GMM fit of {}",
         a.step, f.source.file
@@ -373,8 +510,10 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
             a.input.display()
         )));
     }
+    let jobs = crate::gmm::fit::targets(&a.input, &a.output)?;
+    check_fit_outputs(a, &jobs)?;
     let t = std::time::Instant::now();
-    let fitted = crate::gmm::fit::fit(&a.input, &opt, &a.output)?;
+    let fitted = crate::gmm::fit::fit(&jobs, &opt)?;
     let secs = t.elapsed().as_secs_f64();
     for f in &fitted {
         let m = &f.model;
@@ -400,6 +539,45 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
         a.method,
         a.seed
     );
+    Ok(())
+}
+
+/// The outputs of `gmm fit`, checked before anything is fitted: a folder of inputs is fitted
+/// into the folder `-o` (created if missing, like `render --strategy-images`), which must take
+/// new files; one input into a `.json` file in an existing folder (or into an existing folder).
+fn check_fit_outputs(a: &GmmFitArgs, jobs: &[(PathBuf, PathBuf)]) -> Result<(), Error> {
+    let opt = "-o/--output";
+    if a.input.is_dir() || a.output.is_dir() {
+        if a.output.exists() && !a.output.is_dir() {
+            return Err(Error::input(format!(
+                "{opt} '{}': a folder of BFC files is fitted into a folder, but this is a file",
+                a.output.display()
+            )));
+        }
+        std::fs::create_dir_all(&a.output)
+            .map_err(|e| format!("cannot create the folder: {e}"))
+            .and_then(|()| crate::film::output::probe_writable(&a.output.join("probe.json")))
+            .map_err(|e| Error::input(format!("{opt} '{}': {e}", a.output.display())))?;
+        for (input, out) in jobs {
+            if out.is_dir() {
+                return Err(Error::input(format!(
+                    "{opt} '{}': the model of '{}' would replace a folder",
+                    out.display(),
+                    input.display()
+                )));
+            }
+        }
+        return Ok(());
+    }
+    for (input, out) in jobs {
+        check_output_file(
+            opt,
+            out,
+            "json",
+            "the model is written as JSON, so its name must end in .json (or give a folder)",
+            input,
+        )?;
+    }
     Ok(())
 }
 

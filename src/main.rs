@@ -49,8 +49,28 @@ enum GmmCommand {
     Eval(cli::GmmEvalArgs),
 }
 
+/// On SIGINT, SIGTERM or SIGHUP: delete the temporary output files being written (finished
+/// outputs are never touched) and exit with 128 + the signal number (130, 143, 129).
+fn handle_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        eprintln!(
+            "warning: cannot install the signal handler; an interrupted write may leave a temporary file"
+        );
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            stokes::film::output::remove_in_flight();
+            eprintln!("interrupted (signal {sig}): temporary files removed");
+            std::process::exit(128 + sig);
+        }
+    });
+}
+
 fn main() -> ExitCode {
     let args = Cli::parse();
+    handle_signals();
     let r = match args.command {
         Command::Render(a) => cli::render(&a),
         Command::Inspect { scene } => cli::inspect(&scene),

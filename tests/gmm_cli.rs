@@ -271,3 +271,170 @@ fn fits_at_load_are_cached_by_content_and_settings() {
     assert_eq!(entries().len(), 3);
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Every number of a model file is range-checked on load, naming the field: a huge
+/// reflectance, scale, weight, mean or a collapsed covariance used to load and overflow at
+/// render time; a bad `grid.step` used to be blamed on `--step`.
+#[test]
+fn model_numbers_out_of_range_name_the_file_and_field() {
+    let d = tmpdir("model-range");
+    let bfc = d.join("GOLFYE.BFC");
+    std::fs::write(&bfc, GOLFYE).unwrap();
+    let model = d.join("m.json");
+    let (code, _, err) = stokes(&["gmm", "fit", s(&bfc), "--components", "2", "-o", s(&model)]);
+    assert_eq!(code, 0, "{err}");
+    let good: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(&str, Edit, &str)> = vec![
+        (
+            "refl",
+            Box::new(|v| v["reflectance"][9] = 3.4e38.into()),
+            "reflectance[9]",
+        ),
+        ("scale", Box::new(|v| v["scale"] = 1e300.into()), "scale"),
+        (
+            "albedo",
+            Box::new(|v| v["scale"] = 9e5.into()),
+            "reradiation",
+        ),
+        (
+            "weight",
+            Box::new(|v| v["components"][0]["weight"] = 2.0.into()),
+            "components[0].weight",
+        ),
+        (
+            "mean",
+            Box::new(|v| v["components"][1]["mean"][0] = 1e9.into()),
+            "components[1].mean",
+        ),
+        (
+            "cov",
+            Box::new(|v| v["components"][0]["cov"] = serde_json::json!([[1e-9, 0.0], [0.0, 1e-9]])),
+            "components[0].cov",
+        ),
+        (
+            "step",
+            Box::new(|v| v["grid"]["step"] = 1e-7.into()),
+            "grid.step",
+        ),
+    ];
+    for (tag, edit, field) in cases {
+        let mut v = good.clone();
+        edit(&mut v);
+        let f = d.join(format!("{tag}.json"));
+        std::fs::write(&f, v.to_string()).unwrap();
+        let out = d.join(format!("{tag}.BFC"));
+        let (code, _, err) = stokes(&["gmm", "dense", s(&f), "--step", "10", "-o", s(&out)]);
+        assert_eq!(code, 2, "{tag}: {err}");
+        assert!(
+            err.contains(&format!("{tag}.json")) && err.contains(field),
+            "{tag}: {err}"
+        );
+        assert!(!err.contains("--step"), "{tag}: {err}");
+        assert!(!out.exists(), "{tag}: an output was written");
+    }
+    // A BFC file with a huge entry is refused naming its line, row and column.
+    let row = GOLFYE.lines().find(|l| l.starts_with("750\t")).unwrap();
+    let mut cells: Vec<&str> = row.split('\t').collect();
+    cells[1 + 34] = "3.4e38";
+    let huge = d.join("HUGE.BFC");
+    std::fs::write(&huge, GOLFYE.replacen(row, &cells.join("\t"), 1)).unwrap();
+    let out = d.join("huge.json");
+    let (code, _, err) = stokes(&["gmm", "fit", s(&huge), "-o", s(&out)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("HUGE.BFC") && err.contains("line 50") && err.contains("row 750 nm"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `gmm fit -o` and `gmm dense -o` are checked before any work as `render -o` is: the name's
+/// extension, a folder that exists and takes files, and no output over an input.
+#[test]
+fn gmm_outputs_are_checked_before_any_work() {
+    let d = tmpdir("outputs");
+    let bfc = d.join("GOLFYE.BFC");
+    std::fs::write(&bfc, GOLFYE).unwrap();
+    let model = d.join("m.json");
+    let (code, _, err) = stokes(&["gmm", "fit", s(&bfc), "--components", "2", "-o", s(&model)]);
+    assert_eq!(code, 0, "{err}");
+    let missing = d.join("missing");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "dense".into(),
+                s(&model).into(),
+                "-o".into(),
+                s(&d.join("x.png")).into(),
+            ],
+            ".bfc",
+        ),
+        (
+            vec![
+                "dense".into(),
+                s(&model).into(),
+                "-o".into(),
+                s(&missing.join("x.BFC")).into(),
+            ],
+            "does not exist",
+        ),
+        (
+            vec![
+                "fit".into(),
+                s(&bfc).into(),
+                "-o".into(),
+                s(&d.join("x.txt")).into(),
+            ],
+            ".json",
+        ),
+        (
+            vec![
+                "fit".into(),
+                s(&bfc).into(),
+                "-o".into(),
+                s(&missing.join("m.json")).into(),
+            ],
+            "does not exist",
+        ),
+        // A folder of inputs into a file.
+        (
+            vec!["fit".into(), s(&d).into(), "-o".into(), s(&model).into()],
+            "is a file",
+        ),
+    ];
+    for (args, want) in cases {
+        let mut a = vec!["gmm"];
+        a.extend(args.iter().map(String::as_str));
+        let (code, _, err) = stokes(&a);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(
+            err.contains("-o/--output") && err.contains(want),
+            "{args:?}: {err}"
+        );
+        assert!(!missing.exists(), "{args:?}: a folder was created");
+    }
+    // An output over its own input.
+    let odd = d.join("model.bfc");
+    std::fs::copy(&model, &odd).unwrap();
+    let (code, _, err) = stokes(&["gmm", "dense", s(&odd), "-o", s(&odd)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("is the input file"), "{err}");
+    let odd = d.join("golfye.json");
+    std::fs::write(&odd, GOLFYE).unwrap();
+    let (code, _, err) = stokes(&["gmm", "fit", s(&odd), "-o", s(&odd)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("is the input file"), "{err}");
+    assert_eq!(std::fs::read_to_string(&odd).unwrap(), GOLFYE);
+    // Two inputs of one folder that would write the same model.
+    let folder = d.join("two");
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::write(folder.join("X.BFC"), GOLFYE).unwrap();
+    std::fs::write(folder.join("X.bfc"), GOLFYE).unwrap();
+    let (code, _, err) = stokes(&["gmm", "fit", s(&folder), "-o", s(&d.join("out"))]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("both be fitted into"), "{err}");
+    std::fs::remove_dir_all(&d).unwrap();
+}

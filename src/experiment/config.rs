@@ -51,6 +51,17 @@ fn one() -> u32 {
     1
 }
 
+/// Most worker threads (`threads`, and `--threads` of `stokes render`).
+pub const MAX_THREADS: usize = 1024;
+/// Most samples per pixel of a budget or a reference.
+pub const MAX_SPP: u32 = 1 << 24;
+/// Longest time budget, seconds.
+pub const MAX_SECONDS: f64 = 1e7;
+/// Most budgets per kind, variants, and values of a sweep.
+pub const MAX_LIST: usize = 1000;
+/// Most values along each axis of a parameter grid.
+pub const MAX_GRID_AXIS: usize = 32;
+
 /// Either `{"exr": path}` or `{"integrator", "spp", "seed", "options"}`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -96,6 +107,16 @@ pub struct Budget {
 pub enum RegionBy {
     Material,
     Shape,
+}
+
+impl RegionBy {
+    /// What a region is, in messages.
+    pub fn noun(self) -> &'static str {
+        match self {
+            RegionBy::Material => "material",
+            RegionBy::Shape => "shape",
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -181,15 +202,29 @@ fn err(file: &Path, path: &str, m: impl Into<String>) -> InputError {
     InputError::new(file, path, m)
 }
 
+/// Longest name (of the experiment, a variant or a region), in bytes: names become folder
+/// and file names with up to about 40 bytes of prefix and suffix, and most file systems allow
+/// 255 bytes per name.
+pub const MAX_NAME_BYTES: usize = 100;
+
 /// Names (of the experiment and of variants) become folder and file names.
-fn name_ok(s: &str) -> bool {
+pub(crate) fn name_ok(s: &str) -> bool {
     !s.is_empty()
+        && s.len() <= MAX_NAME_BYTES
         && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_.+".contains(c))
         && !s.starts_with('.')
 }
 
 fn bad_name(s: &str) -> String {
+    if s.len() > MAX_NAME_BYTES {
+        let head: String = s.chars().take(20).collect();
+        return format!(
+            "is {} bytes long ({head:?}…); a name becomes a file name and may have at most \
+             {MAX_NAME_BYTES} bytes",
+            s.len()
+        );
+    }
     format!("must be non-empty and use only letters, digits, '-', '_', '.', '+', got {s:?}")
 }
 
@@ -198,7 +233,9 @@ impl Config {
     pub fn load(path: &Path) -> Result<Config, InputError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| err(path, "", format!("cannot read config: {e}")))?;
-        let c: Config = from_json_str(path, &text)?;
+        // A UTF-8 byte-order mark (some editors write one) is not JSON: skip it.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let c: Config = from_json_str(path, text)?;
         c.validate(path)?;
         Ok(c)
     }
@@ -228,8 +265,12 @@ impl Config {
     }
 
     fn validate_variants(&self, file: &Path) -> Result<(), InputError> {
-        if self.variants.is_empty() {
-            return Err(err(file, "variants", "must list at least one variant"));
+        if self.variants.is_empty() || self.variants.len() > MAX_LIST {
+            return Err(err(
+                file,
+                "variants",
+                format!("must list 1–{MAX_LIST} variants"),
+            ));
         }
         for (i, v) in self.variants.iter().enumerate() {
             if !name_ok(&v.name) {
@@ -312,8 +353,12 @@ impl Config {
                 }
             }
             (None, Some(_), Some(spp)) => {
-                if spp == 0 {
-                    return Err(err(file, "reference.spp", "must be at least 1"));
+                if spp == 0 || spp > MAX_SPP {
+                    return Err(err(
+                        file,
+                        "reference.spp",
+                        format!("must be 1–{MAX_SPP}, got {spp}"),
+                    ));
                 }
                 r.options
                     .validate()
@@ -350,27 +395,36 @@ impl Config {
             ));
         }
         if let Some(l) = spp {
-            if l.is_empty() {
-                return Err(err(file, "budget.spp", "must not be empty"));
-            }
-            if l[0] == 0 || l.windows(2).any(|w| w[1] <= w[0]) {
+            if l.is_empty() || l.len() > MAX_LIST {
                 return Err(err(
                     file,
                     "budget.spp",
-                    "must be positive and strictly increasing",
+                    format!("must list 1–{MAX_LIST} budgets"),
+                ));
+            }
+            if l[0] == 0 || l.windows(2).any(|w| w[1] <= w[0]) || l[l.len() - 1] > MAX_SPP {
+                return Err(err(
+                    file,
+                    "budget.spp",
+                    format!("must be positive, strictly increasing and at most {MAX_SPP}"),
                 ));
             }
         }
         if let Some(l) = secs {
-            if l.is_empty() {
-                return Err(err(file, "budget.seconds", "must not be empty"));
+            if l.is_empty() || l.len() > MAX_LIST {
+                return Err(err(
+                    file,
+                    "budget.seconds",
+                    format!("must list 1–{MAX_LIST} budgets"),
+                ));
             }
-            if l.iter().any(|s| !(s.is_finite() && *s > 0.0)) || l.windows(2).any(|w| w[1] <= w[0])
+            if l.iter().any(|s| !(*s > 0.0 && *s <= MAX_SECONDS))
+                || l.windows(2).any(|w| w[1] <= w[0])
             {
                 return Err(err(
                     file,
                     "budget.seconds",
-                    "must be positive, finite and strictly increasing",
+                    format!("must be positive, strictly increasing and at most {MAX_SECONDS:e}"),
                 ));
             }
         }
@@ -382,13 +436,32 @@ impl Config {
         if self.repeats == 0 || self.repeats > 1000 {
             return Err(err(file, "repeats", "must be 1–1000"));
         }
-        if self.threads == Some(0) {
-            return Err(err(file, "threads", "must be at least 1"));
+        if self.seed.checked_add(self.repeats as u64).is_none() {
+            return Err(err(file, "seed", "seed + repeats must fit in 64 bits"));
         }
-        if let Some(c) = &self.crop
-            && (c.w == 0 || c.h == 0)
+        if let Some(n) = self.threads
+            && !(1..=MAX_THREADS).contains(&n)
         {
-            return Err(err(file, "crop", "w and h must be at least 1"));
+            return Err(err(
+                file,
+                "threads",
+                format!("must be 1–{MAX_THREADS}, got {n}"),
+            ));
+        }
+        if let Some(c) = &self.crop {
+            if c.w == 0 || c.h == 0 {
+                return Err(err(file, "crop", "w and h must be at least 1"));
+            }
+            if c.x.checked_add(c.w).is_none() || c.y.checked_add(c.h).is_none() {
+                return Err(err(
+                    file,
+                    "crop",
+                    format!(
+                        "{}×{} at ({}, {}) reaches past the largest image",
+                        c.w, c.h, c.x, c.y
+                    ),
+                ));
+            }
         }
         if let Some(s) = &self.scanline
             && s.row.is_some() == s.column.is_some()
@@ -401,8 +474,12 @@ impl Config {
         }
         if let Some(g) = &self.grid {
             for (n, a) in [("rows", &g.rows), ("columns", &g.columns)] {
-                if a.values.is_empty() {
-                    return Err(err(file, &format!("grid.{n}.values"), "must not be empty"));
+                if a.values.is_empty() || a.values.len() > MAX_GRID_AXIS {
+                    return Err(err(
+                        file,
+                        &format!("grid.{n}.values"),
+                        format!("must list 1–{MAX_GRID_AXIS} values"),
+                    ));
                 }
             }
         }
@@ -417,8 +494,12 @@ impl Config {
                     format!("{:?} is not a dot path of object keys", sw.path),
                 ));
             }
-            if sw.values.is_empty() {
-                return Err(err(file, "sweep.values", "must not be empty"));
+            if sw.values.is_empty() || sw.values.len() > MAX_LIST {
+                return Err(err(
+                    file,
+                    "sweep.values",
+                    format!("must list 1–{MAX_LIST} values"),
+                ));
             }
         }
         Ok(())

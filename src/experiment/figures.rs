@@ -4,8 +4,9 @@
 //! and the parameter-grid composite.
 
 use super::config::BudgetMode;
-use super::record::{Row, RunInfo, image_file, read_metrics};
+use super::record::{Row, RunInfo, image_file, read_metrics, safe_relative};
 use super::sweep::{SweepRecord, compact, final_entries};
+use crate::error::Error;
 use crate::film::output::read_exr;
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
@@ -18,26 +19,40 @@ fn de<E: std::fmt::Debug>(e: E) -> String {
     format!("plot: {e:?}")
 }
 
-/// Accept a run folder, or an experiment folder with a `latest` file.
-pub fn resolve_run_dir(dir: &Path) -> R<PathBuf> {
+/// Accept a run folder, or an experiment folder with a `latest` file (which must name a folder
+/// inside the experiment folder).
+pub fn resolve_run_dir(dir: &Path) -> Result<PathBuf, Error> {
     if dir.join("run.json").is_file() {
         return Ok(dir.to_path_buf());
     }
     let latest = dir.join("latest");
     if let Ok(t) = std::fs::read_to_string(&latest) {
+        if !safe_relative(t.trim()) {
+            return Err(Error::input(format!(
+                "'{}': {:?} is not a run folder inside '{}'",
+                latest.display(),
+                t.trim(),
+                dir.display()
+            )));
+        }
         let d = dir.join(t.trim());
         if d.join("run.json").is_file() {
             return Ok(d);
         }
     }
-    Err(format!(
+    Err(Error::input(format!(
         "'{}' holds no run.json (nor a `latest` pointing at a run)",
         dir.display()
-    ))
+    )))
 }
 
-/// Regenerate every figure of a run into `<run>/figures/`.
-pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
+/// Most pixels of a composite figure (image grid, crops, parameter grid).
+const MAX_FIGURE_PIXELS: u64 = 1 << 28;
+
+/// Regenerate every figure of a run into `<run>/figures/`. Everything read back (`run.json`,
+/// `metrics.csv`, `sweep.json`, the EXRs) is checked first: a malformed or inconsistent file is an
+/// input error naming it; a figure that cannot be written is a runtime error.
+pub fn make_all(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let dir = resolve_run_dir(dir)?;
     let info = RunInfo::read(&dir)?;
     if info.config.sweep.is_some() {
@@ -51,64 +66,116 @@ pub fn make_all(dir: &Path) -> R<Vec<PathBuf>> {
     }
     let rows = read_metrics(&dir.join("metrics.csv"))?;
     let fig = dir.join("figures");
-    std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;
+    std::fs::create_dir_all(&fig)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", fig.display())))?;
     let mut out = Vec::new();
     if !rows.is_empty() {
         let mut regions = vec!["all".to_string()];
         regions.extend(info.region_names.iter().cloned());
         for region in &regions {
             let suffix = region_suffix(region);
-            let p = fig.join(format!("relmse-vs-seconds{suffix}.svg"));
-            convergence(&info, &rows, region, true, &p)?;
-            out.push(p);
-            let p = fig.join(format!("snr-vs-spp{suffix}.svg"));
-            convergence(&info, &rows, region, false, &p)?;
-            out.push(p);
-        }
-    }
-    // Images at the final budget (equal time preferred), repeat 0.
-    if let Some(mb) = info
-        .modes
-        .iter()
-        .find(|m| m.mode == BudgetMode::Time)
-        .or(info.modes.first())
-    {
-        let idx = mb.budgets.len() - 1;
-        let reference = match &info.reference_file {
-            Some(f) => Some(read_exr(&dir.join(f))?.2),
-            None => None,
-        };
-        let mut imgs = Vec::new();
-        for v in &info.config.variants {
-            let f = dir.join(image_file(&v.name, mb.mode, idx, 0));
-            if f.is_file() {
-                imgs.push((v.name.clone(), read_exr(&f)?.2));
-            }
-        }
-        let label = match mb.mode {
-            BudgetMode::Time => format!("equal time {} s", mb.budgets[idx]),
-            BudgetMode::Spp => format!("{} spp", mb.budgets[idx]),
-        };
-        if !imgs.is_empty() && info.grid_cells.is_empty() {
-            out.extend(image_grid(
-                &info,
-                reference.as_deref(),
-                &imgs,
-                &label,
-                &fig,
-            )?);
-            if let Some(c) = info.crop {
-                out.extend(crops(&info, reference.as_deref(), &imgs, c, &label, &fig)?);
-            }
-            if let Some(s) = info.scanline {
-                let p = fig.join("scanline.svg");
-                scanline(&info, reference.as_deref(), &imgs, s, &label, &p)?;
+            for (time_plot, name) in [(true, "relmse-vs-seconds"), (false, "snr-vs-spp")] {
+                let p = fig.join(format!("{name}{suffix}.svg"));
+                convergence(&info, &rows, region, time_plot, &p).map_err(Error::runtime)?;
                 out.push(p);
             }
         }
     }
+    out.extend(image_figures(&dir, &info, &fig)?);
     if !info.grid_cells.is_empty() {
         out.extend(parameter_grid(&dir, &info, &fig)?);
+    }
+    Ok(out)
+}
+
+/// Read the EXR `file` of the run folder `dir`: it must exist and be `info`'s size; a reference
+/// must be finite everywhere. Errors name the file.
+fn load_image(dir: &Path, file: &str, info: &RunInfo, reference: bool) -> Result<Vec<Vec3>, Error> {
+    let p = dir.join(file);
+    let what = if reference {
+        "the run's reference, `reference_file` of run.json"
+    } else {
+        "an image run.json lists"
+    };
+    let (w, h, px) = read_exr(&p).map_err(|e| Error::input(format!("{e} ({what})")))?;
+    if (w, h) != (info.width, info.height) {
+        return Err(Error::input(format!(
+            "'{}' is {w}×{h}, but run.json (`width`, `height`) says {}×{}",
+            p.display(),
+            info.width,
+            info.height
+        )));
+    }
+    if reference && let Some(i) = px.iter().position(|c| !c.is_finite()) {
+        return Err(Error::input(format!(
+            "reference image '{}': pixel ({}, {}) is not finite ({}): metrics against it would be NaN",
+            p.display(),
+            i % w as usize,
+            i / w as usize,
+            px[i]
+        )));
+    }
+    Ok(px)
+}
+
+/// An input error when a composite figure of `w`×`h` pixels would be too large.
+fn check_size(what: &str, w: u64, h: u64) -> Result<(), Error> {
+    if w.saturating_mul(h) > MAX_FIGURE_PIXELS || w > u32::MAX as u64 || h > u32::MAX as u64 {
+        return Err(Error::input(format!(
+            "the {what} figure would be {w}×{h} pixels (at most {MAX_FIGURE_PIXELS}): too many images in run.json"
+        )));
+    }
+    Ok(())
+}
+
+/// The image grid, crops and scanline at the final budget (equal time preferred), repeat 0.
+fn image_figures(dir: &Path, info: &RunInfo, fig: &Path) -> Result<Vec<PathBuf>, Error> {
+    let mut out = Vec::new();
+    let Some(mb) = info
+        .modes
+        .iter()
+        .find(|m| m.mode == BudgetMode::Time)
+        .or(info.modes.first())
+    else {
+        return Ok(out);
+    };
+    let idx = mb.budgets.len() - 1;
+    let reference = match &info.reference_file {
+        Some(f) => Some(load_image(dir, f, info, true)?),
+        None => None,
+    };
+    let mut imgs = Vec::new();
+    for v in &info.config.variants {
+        let f = image_file(&v.name, mb.mode, idx, 0);
+        if dir.join(&f).is_file() {
+            imgs.push((v.name.clone(), load_image(dir, &f, info, false)?));
+        }
+    }
+    let label = match mb.mode {
+        BudgetMode::Time => format!("equal time {} s", mb.budgets[idx]),
+        BudgetMode::Spp => format!("{} spp", mb.budgets[idx]),
+    };
+    if imgs.is_empty() || !info.grid_cells.is_empty() {
+        return Ok(out);
+    }
+    let cols = imgs.len() as u64 + reference.is_some() as u64;
+    let (w, h) = (info.width as u64, info.height as u64);
+    check_size("image grid", cols * (w + GAP as u64), 2 * (h + GAP as u64))?;
+    let r = reference.as_deref();
+    out.extend(image_grid(info, r, &imgs, &label, fig).map_err(Error::runtime)?);
+    if let Some(c) = info.crop {
+        let zoom = (192 / c.w.max(c.h)).max(1) as u64;
+        check_size(
+            "crops",
+            cols * (c.w as u64 * zoom + GAP as u64),
+            c.h as u64 * zoom,
+        )?;
+        out.extend(crops(info, r, &imgs, c, &label, fig).map_err(Error::runtime)?);
+    }
+    if let Some(s) = info.scanline {
+        let p = fig.join("scanline.svg");
+        scanline(info, r, &imgs, s, &label, &p).map_err(Error::runtime)?;
+        out.push(p);
     }
     Ok(out)
 }
@@ -549,20 +616,24 @@ fn scanline(
     Ok(())
 }
 
-fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
-    let g = info
-        .config
-        .grid
-        .as_ref()
-        .ok_or("grid cells without a grid")?;
+fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> Result<Vec<PathBuf>, Error> {
+    // RunInfo::check has made sure the cells lie inside the config's grid.
+    let Some(g) = info.config.grid.as_ref() else {
+        return Ok(Vec::new());
+    };
     let (w, h) = (info.width, info.height);
     let (nr, nc) = (g.rows.values.len() as u32, g.columns.values.len() as u32);
+    check_size(
+        "parameter grid",
+        nc as u64 * (w as u64 + GAP as u64),
+        nr as u64 * (h as u64 + GAP as u64),
+    )?;
     let mut cells = Vec::new();
     for c in &info.grid_cells {
         cells.push((
             c.row as u32,
             c.column as u32,
-            read_exr(&dir.join(&c.file))?.2,
+            load_image(dir, &c.file, info, false)?,
         ));
     }
     // One exposure for the whole grid so the cells compare.
@@ -582,7 +653,7 @@ fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
         );
     }
     let png = fig.join("parameter-grid.png");
-    save_png(&img, &png)?;
+    save_png(&img, &png).map_err(Error::runtime)?;
     let band = 36;
     let mut labels = Vec::new();
     for (j, v) in g.columns.values.iter().enumerate() {
@@ -608,7 +679,8 @@ fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> R<Vec<PathBuf>> {
         band,
         &labels,
         &format!("{}: material {}", info.config.name, g.material),
-    )?;
+    )
+    .map_err(Error::runtime)?;
     Ok(vec![png, svg])
 }
 
@@ -655,11 +727,12 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
 /// against the swept value, `figures/snr-vs-sweep[-region].svg`, from each value's
 /// `metrics.csv`. The values are evenly spaced and labelled with their text, so a value may be
 /// any JSON.
-pub fn sweep_summary(dir: &Path) -> R<Vec<PathBuf>> {
+pub fn sweep_summary(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let info = RunInfo::read(dir)?;
     let rec = SweepRecord::read(dir)?;
     let fig = dir.join("figures");
-    std::fs::create_dir_all(&fig).map_err(|e| format!("{}: {e}", fig.display()))?;
+    std::fs::create_dir_all(&fig)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", fig.display())))?;
     let mut finals = Vec::new();
     for p in &rec.points {
         finals.push(final_entries(&read_metrics(
@@ -686,7 +759,7 @@ pub fn sweep_summary(dir: &Path) -> R<Vec<PathBuf>> {
             "{}: SNR at the final budget vs {} ({region})",
             info.config.name, rec.label
         );
-        sweep_plot(&ls, &labels, &rec.label, &title, &p)?;
+        sweep_plot(&ls, &labels, &rec.label, &title, &p).map_err(Error::runtime)?;
         out.push(p);
     }
     Ok(out)
@@ -814,11 +887,23 @@ where
     Ok(())
 }
 
-/// The file-name suffix of a region's figure: none for the whole image, `-name` otherwise.
+/// The file-name suffix of a region's figure: none for the whole image, `-name` otherwise, with
+/// any character but letters, digits, '-', '_', '.' and '+' replaced by '_' (a region name is a
+/// shape or material name and must not lead out of `figures/`).
 fn region_suffix(region: &str) -> String {
     if region == "all" {
         String::new()
     } else {
-        format!("-{region}")
+        let safe: String = region
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "-_.+".contains(c) {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        format!("-{safe}")
     }
 }

@@ -33,6 +33,38 @@ pub fn render_cells(s: &Setup, run_dir: &Path, bar: &ProgressBar) -> Result<Vec<
     Ok(cells)
 }
 
+/// Check every cell of the config's grid before anything renders: the scene with the cell's
+/// values must load, and the first variant's integrator must accept it. Errors name the config
+/// file, the cell and its values.
+pub fn check_cells(s: &Setup) -> Result<(), Error> {
+    let Some(g) = &s.cfg.grid else {
+        return Ok(());
+    };
+    let v = &s.cfg.variants[0];
+    for (i, rv) in g.rows.values.iter().enumerate() {
+        for (j, cv) in g.columns.values.iter().enumerate() {
+            let cell = |m: &str| {
+                Error::input(format!(
+                    "{}: field `grid`: cell ({i}, {j}) with {} = {rv}, {} = {cv}: {m}",
+                    s.config_path.display(),
+                    g.rows.field,
+                    g.columns.field
+                ))
+            };
+            let mut scene = scene_with_override(
+                s,
+                &g.material,
+                &[(&g.rows.field, *rv), (&g.columns.field, *cv)],
+            )
+            .map_err(|e| cell(&e.message))?;
+            s.resize(&mut scene);
+            crate::integrator::render::check(&scene, v.integrator, &v.options)
+                .map_err(|e| cell(&format!("integrator `{}`: {e}", v.integrator.name())))?;
+        }
+    }
+    Ok(())
+}
+
 /// Cell (`i`, `j`) with the row parameter at `rv` and the column parameter at `cv`.
 fn render_cell(
     s: &Setup,

@@ -18,7 +18,9 @@ pub struct ErrorMetrics {
 }
 
 /// Metrics over the pixels where `mask` is true (all pixels when `mask` is `None`), summing
-/// over the three channels. Non-finite image values count as an infinite error.
+/// over the three channels. Non-finite image values count as an infinite error; so do
+/// non-finite reference values (callers reject such references on load), which also add no
+/// signal: the metrics are never NaN.
 pub fn compare(img: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> ErrorMetrics {
     assert_eq!(
         img.len(),
@@ -33,6 +35,11 @@ pub fn compare(img: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Error
         n += 1;
         for c in 0..3 {
             let (a, r) = (a[c] as f64, r[c] as f64);
+            if !r.is_finite() {
+                noise = f64::INFINITY;
+                rel = f64::INFINITY;
+                continue;
+            }
             let d = if a.is_finite() { a - r } else { f64::INFINITY };
             sig += r * r;
             noise += d * d;
@@ -137,6 +144,17 @@ mod tests {
         let r = vec![Vec3::ONE];
         let img = vec![Vec3::new(f32::NAN, 1.0, 1.0)];
         assert!(compare(&img, &r, None).mse.is_infinite());
+    }
+
+    #[test]
+    fn non_finite_reference_gives_infinite_error_not_nan() {
+        let r = vec![
+            Vec3::new(f32::NAN, 1.0, 1.0),
+            Vec3::new(f32::INFINITY, 1.0, 1.0),
+        ];
+        let m = compare(&[Vec3::ONE, Vec3::ONE], &r, None);
+        assert!(m.mse.is_infinite() && m.rel_mse.is_infinite(), "{m:?}");
+        assert!(!m.snr_db.is_nan(), "{m:?}");
     }
 
     #[test]

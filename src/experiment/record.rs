@@ -43,13 +43,194 @@ pub struct GridCell {
     pub file: String,
 }
 
+/// Most budgets of one mode, grid cells, variants and regions a stored run may list.
+const MAX_ITEMS: usize = 4096;
+
 impl RunInfo {
-    /// Read `run.json` of the run folder `dir`.
-    pub fn read(dir: &Path) -> Result<RunInfo, String> {
+    /// Read `run.json` of the run folder `dir` and check it (see [`RunInfo::check`]).
+    pub fn read(dir: &Path) -> Result<RunInfo, Error> {
         let p = dir.join("run.json");
-        let text = std::fs::read_to_string(&p).map_err(|e| format!("run.json: {e}"))?;
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))
+        let text = std::fs::read_to_string(&p)
+            .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?;
+        let info: RunInfo = crate::scene::error::from_json_str(&p, &text)?;
+        info.check(&p)?;
+        Ok(info)
     }
+
+    /// What the figures rely on, checked as untrusted input: the size, the budgets (each mode's
+    /// non-empty, finite, positive), crop and scanline inside the image, safe relative file names,
+    /// grid cells inside the grid. Errors name `file` (run.json) and the field.
+    pub fn check(&self, file: &Path) -> Result<(), Error> {
+        let bad = |field: &str, m: String| {
+            Error::input(format!("{}: field `{field}`: {m}", file.display()))
+        };
+        let (w, h) = (self.width as u64, self.height as u64);
+        if w == 0 || h == 0 || w * h > crate::film::output::MAX_READ_PIXELS as u64 {
+            return Err(bad("width", format!("{w}×{h} is not a valid image size")));
+        }
+        for (i, m) in self.modes.iter().enumerate() {
+            let b = &m.budgets;
+            if b.is_empty() || b.len() > MAX_ITEMS {
+                return Err(bad(
+                    &format!("modes[{i}].budgets"),
+                    format!("must list 1–{MAX_ITEMS} budgets"),
+                ));
+            }
+            if b.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(bad(
+                    &format!("modes[{i}].budgets"),
+                    "budgets must be positive and finite".into(),
+                ));
+            }
+        }
+        if let Some(c) = self.crop {
+            let fits =
+                c.w > 0 && c.h > 0 && c.x as u64 + c.w as u64 <= w && c.y as u64 + c.h as u64 <= h;
+            if !fits {
+                return Err(bad(
+                    "crop",
+                    format!(
+                        "{}×{} at ({}, {}) is not inside the {w}×{h} image",
+                        c.w, c.h, c.x, c.y
+                    ),
+                ));
+            }
+        }
+        if let Some(s) = self.scanline {
+            let ok = match (s.row, s.column) {
+                (Some(r), None) => (r as u64) < h,
+                (None, Some(c)) => (c as u64) < w,
+                _ => false,
+            };
+            if !ok {
+                return Err(bad(
+                    "scanline",
+                    format!("needs one row < {h} or one column < {w}"),
+                ));
+            }
+        }
+        self.check_names(&bad)
+    }
+
+    /// Variant and region names, the reference file and the grid cells.
+    fn check_names(&self, bad: &dyn Fn(&str, String) -> Error) -> Result<(), Error> {
+        let vs = &self.config.variants;
+        if vs.len() > MAX_ITEMS || self.region_names.len() > MAX_ITEMS {
+            return Err(bad(
+                "config.variants",
+                "too many variants or regions".into(),
+            ));
+        }
+        for (i, v) in vs.iter().enumerate() {
+            if !super::config::name_ok(&v.name) {
+                return Err(bad(
+                    &format!("config.variants[{i}].name"),
+                    format!("{:?} is not a valid variant name", v.name),
+                ));
+            }
+        }
+        if let Some(f) = &self.reference_file
+            && !safe_relative(f)
+        {
+            return Err(bad(
+                "reference_file",
+                format!("{f:?} is not a file name inside the run folder"),
+            ));
+        }
+        if self.grid_cells.len() > MAX_ITEMS {
+            return Err(bad("grid_cells", "too many cells".into()));
+        }
+        let dims = self
+            .config
+            .grid
+            .as_ref()
+            .map(|g| (g.rows.values.len(), g.columns.values.len()));
+        for (i, c) in self.grid_cells.iter().enumerate() {
+            let field = format!("grid_cells[{i}]");
+            let Some((nr, nc)) = dims else {
+                return Err(bad(&field, "grid cells without `config.grid`".into()));
+            };
+            if c.row >= nr || c.column >= nc {
+                return Err(bad(
+                    &field,
+                    format!(
+                        "cell ({}, {}) is outside the {nr}×{nc} grid",
+                        c.row, c.column
+                    ),
+                ));
+            }
+            if !safe_relative(&c.file) {
+                return Err(bad(
+                    &format!("{field}.file"),
+                    format!("{:?} is not a file name inside the run folder", c.file),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A relative path that stays inside its folder (no root, no `..`).
+pub fn safe_relative(p: &str) -> bool {
+    use std::path::Component;
+    !p.is_empty()
+        && Path::new(p)
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+}
+
+/// The marker file of a run folder that is being written or whose run failed or was
+/// interrupted: written before anything renders, removed when the run completes.
+pub const INCOMPLETE: &str = "INCOMPLETE";
+
+/// Mark `run_dir` incomplete, saying what runs; also the first write into it (so an unwritable
+/// results folder is found before anything renders).
+pub fn mark_incomplete(run_dir: &Path, what: &str) -> Result<(), Error> {
+    write_text(
+        &run_dir.join(INCOMPLETE),
+        &format!(
+            "{what}\nstarted {} UTC by process {}. This run has not completed: it is still running, \
+             or it failed or was interrupted. Its results may be partial; results written so far \
+             are kept.\n",
+            timestamp(),
+            std::process::id()
+        ),
+    )
+}
+
+/// The run completed: remove its marker.
+pub fn mark_complete(run_dir: &Path) -> Result<(), Error> {
+    std::fs::remove_file(run_dir.join(INCOMPLETE)).map_err(|e| {
+        Error::runtime(format!(
+            "cannot remove '{}': {e}",
+            run_dir.join(INCOMPLETE).display()
+        ))
+    })
+}
+
+/// An input error when `run_dir`, or the sweep run it is a value of (`<run>/sweep/<i>`), holds
+/// the marker of an incomplete run.
+pub fn check_complete(run_dir: &Path) -> Result<(), Error> {
+    let mut dirs = vec![run_dir.to_path_buf()];
+    if let Some(sweep) = run_dir.parent()
+        && sweep.file_name().is_some_and(|n| n == "sweep")
+        && let Some(run) = sweep.parent()
+    {
+        dirs.push(run.to_path_buf());
+    }
+    for d in dirs {
+        let m = d.join(INCOMPLETE);
+        if m.exists() {
+            let what = std::fs::read_to_string(&m).unwrap_or_default();
+            return Err(Error::input(format!(
+                "'{}' is an incomplete run (marker '{}': {}); run the experiment again",
+                d.display(),
+                m.display(),
+                what.lines().next().unwrap_or("no description")
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// One line of `metrics.csv`.
@@ -95,29 +276,61 @@ impl Row {
             self.efficiency
         )
     }
-    pub fn from_csv(line: &str) -> Option<Row> {
+    /// Parse one line; the error names the column that is wrong.
+    pub fn from_csv(line: &str) -> Result<Row, String> {
         let f: Vec<&str> = line.trim().split(',').collect();
         if f.len() != 15 {
-            return None;
+            return Err(format!("{} fields, expected 15", f.len()));
         }
-        let p = |s: &str| s.parse::<f64>().ok();
-        Some(Row {
+        let col = |i: usize| CSV_HEADER.split(',').nth(i).unwrap_or("?");
+        let num = |i: usize| -> Result<f64, String> {
+            match f[i].parse::<f64>() {
+                Ok(x) if !x.is_nan() => Ok(x),
+                _ => Err(format!("column `{}`: {:?} is not a number", col(i), f[i])),
+            }
+        };
+        let int = |i: usize| -> Result<u64, String> {
+            f[i].parse::<u64>()
+                .map_err(|_| format!("column `{}`: {:?} is not a count", col(i), f[i]))
+        };
+        let small = |i: usize| -> Result<u32, String> {
+            u32::try_from(int(i)?)
+                .map_err(|_| format!("column `{}`: {} is too large", col(i), f[i]))
+        };
+        let row = Row {
             variant: f[0].into(),
             integrator: f[1].into(),
             mode: f[2].into(),
-            budget: p(f[3])?,
-            repeat: f[4].parse().ok()?,
-            seed: f[5].parse().ok()?,
-            spp: f[6].parse().ok()?,
-            seconds: p(f[7])?,
-            samples_per_second: p(f[8])?,
+            budget: num(3)?,
+            repeat: small(4)?,
+            seed: int(5)?,
+            spp: small(6)?,
+            seconds: num(7)?,
+            samples_per_second: num(8)?,
             region: f[9].into(),
-            pixels: f[10].parse().ok()?,
-            mse: p(f[11])?,
-            rel_mse: p(f[12])?,
-            snr_db: p(f[13])?,
-            efficiency: p(f[14])?,
-        })
+            pixels: int(10)? as usize,
+            mse: num(11)?,
+            rel_mse: num(12)?,
+            snr_db: num(13)?,
+            efficiency: num(14)?,
+        };
+        if row.mode != "spp" && row.mode != "time" {
+            return Err(format!(
+                "column `mode`: {:?} is not `spp` or `time`",
+                row.mode
+            ));
+        }
+        for (i, x) in [
+            (3, row.budget),
+            (7, row.seconds),
+            (11, row.mse),
+            (12, row.rel_mse),
+        ] {
+            if x < 0.0 || x.is_infinite() && i != 11 && i != 12 {
+                return Err(format!("column `{}`: {x} is out of range", col(i)));
+            }
+        }
+        Ok(row)
     }
 }
 
@@ -132,16 +345,30 @@ pub fn metrics_csv(rows: &[Row]) -> String {
     csv
 }
 
-pub fn read_metrics(path: &Path) -> Result<Vec<Row>, String> {
+/// Read `metrics.csv` (a UTF-8 BOM is skipped); the header must be ours. Errors are input
+/// errors naming the file, the line and the column.
+pub fn read_metrics(path: &Path) -> Result<Vec<Row>, Error> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+        .map_err(|e| Error::input(format!("cannot read '{}': {e}", path.display())))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.trim() == CSV_HEADER => {}
+        _ => {
+            return Err(Error::input(format!(
+                "{}: line 1: the header is not `{CSV_HEADER}`",
+                path.display()
+            )));
+        }
+    }
     let mut rows = Vec::new();
-    for (i, l) in text.lines().enumerate().skip(1) {
+    for (i, l) in lines {
         if l.trim().is_empty() {
             continue;
         }
         rows.push(
-            Row::from_csv(l).ok_or_else(|| format!("{}: bad line {}", path.display(), i + 1))?,
+            Row::from_csv(l)
+                .map_err(|e| Error::input(format!("{}: line {}: {e}", path.display(), i + 1)))?,
         );
     }
     Ok(rows)
@@ -305,7 +532,7 @@ mod tests {
             snr_db: 3.25,
             efficiency: 0.8,
         };
-        assert_eq!(Row::from_csv(&r.to_csv()), Some(r));
+        assert_eq!(Row::from_csv(&r.to_csv()), Ok(r));
         assert_eq!(CSV_HEADER.split(',').count(), 15);
     }
 

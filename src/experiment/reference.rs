@@ -26,7 +26,22 @@ pub fn get(s: &Setup, bar: &ProgressBar) -> Result<Option<Vec<Vec3>>, Error> {
 /// Read the reference EXR `p`; resample it when it is at another resolution because of `--quick`.
 fn load(s: &Setup, p: &Path) -> Result<Vec<Vec3>, Error> {
     let (w, h, fw, fh) = (s.width, s.height, s.full_width, s.full_height);
-    let (rw, rh, px) = read_exr(p).map_err(Error::input)?;
+    let (rw, rh, px) = read_exr(p).map_err(|e| {
+        Error::input(format!(
+            "{}: field `reference.exr`: {e}",
+            s.config_path.display()
+        ))
+    })?;
+    if let Some(i) = px.iter().position(|c| !c.is_finite()) {
+        return Err(Error::input(format!(
+            "{}: field `reference.exr`: reference image '{}' has a non-finite pixel ({}, {}) = {}: metrics against it would be NaN",
+            s.config_path.display(),
+            p.display(),
+            i % rw as usize,
+            i / rw as usize,
+            px[i]
+        )));
+    }
     if (rw, rh) == (w, h) {
         Ok(px)
     } else if s.quick || (rw, rh) == (fw, fh) && (w, h) != (fw, fh) {
@@ -48,11 +63,19 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
         .root
         .join("references")
         .join(format!("{:016x}.exr", cache_key(s, r)));
+    // The cache is read back as untrusted: a damaged, resized or non-finite file is rendered anew.
     if let Ok((cw, ch, px)) = read_exr(&cache)
         && (cw, ch) == (w, h)
+        && px.iter().all(|c| c.is_finite())
     {
         bar.inc(spp as u64);
         return Ok(px);
+    }
+    if cache.exists() {
+        eprintln!(
+            "warning: cached reference '{}' is damaged or not of this run's size: rendering it again",
+            cache.display()
+        );
     }
     bar.set_message(format!("reference ({}, {spp} spp)", kind.name()));
     let settings = RenderSettings {

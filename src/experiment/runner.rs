@@ -5,8 +5,8 @@
 
 use super::config::Sweep;
 use super::record::{
-    GridCell, Row, RunInfo, SummaryEntry, metrics_csv, mkdir, new_run_dir, summarize, timestamp,
-    write_text,
+    GridCell, Row, RunInfo, SummaryEntry, mark_complete, mark_incomplete, metrics_csv, mkdir,
+    new_run_dir, summarize, timestamp, write_text,
 };
 use super::regions::{self, Region};
 use super::setup::Setup;
@@ -25,13 +25,32 @@ pub fn run_experiment(
     root: Option<&Path>,
     quick: bool,
 ) -> Result<PathBuf, Error> {
+    // Everything is checked before the first sample: the config, every scene (variants', the
+    // sweep's values, the grid's cells), the integrators, the size of the region masks, and
+    // that the results root takes files.
     let setup = Setup::load(config_path, root, quick)?;
     setup.check_integrators()?;
     let points = sweep::points(&setup)?;
+    grid::check_cells(&setup)?;
+    regions::check(&setup)?;
+    for p in &points {
+        regions::check(&p.setup)?;
+    }
+    setup.check_writable()?;
     let runs = points.len().max(1) as u64;
     let bar = progress::bar(progress::total(&setup.cfg, &setup.modes) * runs);
     let (run_dir, run_name) = new_run_dir(&setup.root, &setup.cfg.name)?;
     let started = timestamp();
+    // The marker stays when the run fails or is interrupted (docs: experiments/README.md).
+    mark_incomplete(
+        &run_dir,
+        &format!(
+            "experiment '{}' ({}{})",
+            setup.cfg.name,
+            config_path.display(),
+            if quick { ", --quick" } else { "" }
+        ),
+    )?;
     match &setup.cfg.sweep {
         None => {
             let rows = run_steps(&setup, &run_dir, &bar, started)?;
@@ -40,7 +59,8 @@ pub fn run_experiment(
         }
         Some(sw) => run_sweep(&setup, sw, &points, &run_dir, &bar, started)?,
     }
-    // Only now does `latest` move to this run.
+    // Only now is the run complete, and only then does `latest` move to it.
+    mark_complete(&run_dir)?;
     write_text(
         &setup.root.join(&setup.cfg.name).join("latest"),
         &format!("runs/{run_name}\n"),
@@ -80,7 +100,7 @@ fn run_steps(
     let grid_cells = grid::render_cells(setup, run_dir, bar)?;
     let info = run_info(setup, reference.is_some(), &regions, grid_cells, started);
     write_results(run_dir, &rows, &info)?;
-    figures::make_all(run_dir).map_err(Error::runtime)?;
+    figures::make_all(run_dir)?;
     Ok(rows)
 }
 
@@ -112,7 +132,7 @@ fn run_sweep(
         &run_dir.join("run.json"),
         &serde_json::to_string_pretty(&info).unwrap(),
     )?;
-    figures::sweep_summary(run_dir).map_err(Error::runtime)?;
+    figures::sweep_summary(run_dir)?;
     for (p, rows) in &results {
         eprintln!("{} = {}:", sw.label(), sweep::compact(&p.value));
         print_summary(rows);

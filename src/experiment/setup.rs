@@ -96,6 +96,32 @@ impl Setup {
         Ok(s)
     }
 
+    /// Check, before anything renders, that the results root takes the run folder and (when a
+    /// reference is rendered) the reference cache: create both folders and a probe file in each.
+    pub fn check_writable(&self) -> Result<(), Error> {
+        let mut dirs = vec![self.root.join(&self.cfg.name).join("runs")];
+        if self
+            .cfg
+            .reference
+            .as_ref()
+            .is_some_and(|r| r.integrator.is_some())
+        {
+            dirs.push(self.root.join("references"));
+        }
+        for d in dirs {
+            std::fs::create_dir_all(&d)
+                .map_err(|e| format!("cannot create '{}': {e}", d.display()))
+                .and_then(|()| crate::film::output::probe_writable(&d.join("probe")))
+                .map_err(|e| {
+                    Error::input(format!(
+                        "results folder (--out) '{}': {e}",
+                        self.root.display()
+                    ))
+                })?;
+        }
+        Ok(())
+    }
+
     /// Run-to-full-resolution scale factors (x, y).
     fn scale(&self) -> (f64, f64) {
         (
@@ -110,7 +136,8 @@ impl Setup {
             return Ok(None);
         };
         let (fw, fh, w, h) = (self.full_width, self.full_height, self.width, self.height);
-        if c.x + c.w > fw || c.y + c.h > fh {
+        // In u64: a crop `x` near u32::MAX must not wrap round the bounds check.
+        if c.x as u64 + c.w as u64 > fw as u64 || c.y as u64 + c.h as u64 > fh as u64 {
             return Err(Error::input(format!(
                 "{}: field `crop`: {}×{} at ({}, {}) exceeds the {fw}×{fh} image",
                 self.config_path.display(),

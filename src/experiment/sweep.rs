@@ -114,11 +114,23 @@ impl SweepRecord {
         }
     }
 
-    /// Read `sweep.json` of the run folder `dir`.
-    pub fn read(dir: &Path) -> Result<SweepRecord, String> {
+    /// Read `sweep.json` of the run folder `dir`; each value's folder must be a relative path
+    /// inside the run folder.
+    pub fn read(dir: &Path) -> Result<SweepRecord, Error> {
         let p = dir.join("sweep.json");
-        let text = std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?;
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))
+        let text = std::fs::read_to_string(&p)
+            .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?;
+        let rec: SweepRecord = crate::scene::error::from_json_str(&p, &text)?;
+        for (i, pt) in rec.points.iter().enumerate() {
+            if !super::record::safe_relative(&pt.dir) {
+                return Err(Error::input(format!(
+                    "{}: field `points[{i}].dir`: {:?} is not a folder inside the run folder",
+                    p.display(),
+                    pt.dir
+                )));
+            }
+        }
+        Ok(rec)
     }
 }
 

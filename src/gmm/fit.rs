@@ -36,25 +36,42 @@ pub fn fit_file(path: &Path, opt: &FitOptions) -> Result<GmmFile, Error> {
     Ok(f)
 }
 
-/// Fit `input` (a BFC file, or a folder of them) and write the models: to `out` for a file (or
-/// into `out` when it is an existing folder), or as `out/<STEM>.json` for a folder. Files are
-/// fitted in parallel under a progress bar; a file that fails is named and the others are
-/// still written.
-pub fn fit(input: &Path, opt: &FitOptions, out: &Path) -> Result<Vec<Fitted>, Error> {
+/// The (input, output) pairs of `stokes gmm fit INPUT -o OUT`: `out` itself for a file (or
+/// `out/<STEM>.json` when `out` is an existing folder), `out/<STEM>.json` for every BFC file of
+/// a folder. Two inputs that would write the same output are an error.
+pub fn targets(input: &Path, out: &Path) -> Result<Vec<(PathBuf, PathBuf)>, Error> {
     let files = if input.is_dir() {
         super::evaluate::files_with_extension(input, "bfc", "BFC matrix")?
     } else {
         vec![input.to_path_buf()]
     };
     let into_folder = input.is_dir() || out.is_dir();
-    let target = |f: &Path| -> PathBuf {
-        if into_folder {
+    let mut jobs: Vec<(PathBuf, PathBuf)> = Vec::with_capacity(files.len());
+    for f in files {
+        let target = if into_folder {
             let stem = f.file_stem().unwrap_or_default().to_string_lossy();
             out.join(format!("{stem}.json"))
         } else {
             out.to_path_buf()
+        };
+        if let Some((other, _)) = jobs.iter().find(|(_, t)| *t == target) {
+            return Err(Error::input(format!(
+                "'{}' and '{}' would both be fitted into '{}': rename one of them",
+                other.display(),
+                f.display(),
+                target.display()
+            )));
         }
-    };
+        jobs.push((f, target));
+    }
+    Ok(jobs)
+}
+
+/// Fit every (input, output) pair of [`targets`] and write the models. Files are fitted in
+/// parallel under a progress bar; a file that fails is named and the others are still
+/// written.
+pub fn fit(jobs: &[(PathBuf, PathBuf)], opt: &FitOptions) -> Result<Vec<Fitted>, Error> {
+    let files = jobs;
     let bar = if files.len() > 1 {
         crate::experiment::progress::bar(files.len() as u64)
     } else {
@@ -62,9 +79,9 @@ pub fn fit(input: &Path, opt: &FitOptions, out: &Path) -> Result<Vec<Fitted>, Er
     };
     let results: Vec<Result<Fitted, Error>> = files
         .par_iter()
-        .map(|f| {
+        .map(|(f, output)| {
             let model = fit_file(f, opt)?;
-            let output = target(f);
+            let output = output.clone();
             write_atomic(&output, |tmp| {
                 std::fs::write(tmp, model.to_json())
                     .map_err(|e| format!("cannot write '{}': {e}", output.display()))

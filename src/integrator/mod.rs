@@ -163,6 +163,10 @@ pub struct Stats {
     pub rays: u64,
     /// Samples that would have put a NaN or Inf on the film, and were dropped.
     pub nan_inf_rejected: u64,
+    /// bdpt-forward/backward: connections that carried light (f > 0) but whose own strategy's
+    /// pdf was NaN, infinite or zero, and were dropped (docs/bdpt.md).
+    #[serde(default)]
+    pub dropped_strategy_pdfs: u64,
 }
 
 impl Stats {
@@ -171,6 +175,7 @@ impl Stats {
         self.contributing_paths += o.contributing_paths;
         self.rays += o.rays;
         self.nan_inf_rejected += o.nan_inf_rejected;
+        self.dropped_strategy_pdfs += o.dropped_strategy_pdfs;
         if self.contributing_by_length.len() < o.contributing_by_length.len() {
             self.contributing_by_length
                 .resize(o.contributing_by_length.len(), 0);

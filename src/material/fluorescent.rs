@@ -2,7 +2,7 @@
 //! quantum yield Φ and concentration c.
 
 use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
-use crate::spectrum::{BinGrid, Distribution1D, Domain, Spectrum};
+use crate::spectrum::{BinGrid, Distribution1D, Domain, Spectrum, normalisable};
 
 #[derive(Clone, Debug)]
 pub struct FluorescentDiffuse {
@@ -21,8 +21,9 @@ pub struct FluorescentDiffuse {
 }
 
 impl FluorescentDiffuse {
-    /// Build the model; returns the warnings produced by normalising a and e, or an error
-    /// message when a or e is zero on the whole domain.
+    /// Build the model; returns the warnings produced by normalising a and e, or the field
+    /// (`absorption`, `emission`) and a message when a or e is zero on the whole domain or its
+    /// peak or area is too small to normalise (it is divided by in f64).
     pub fn new(
         r: Spectrum,
         a: Spectrum,
@@ -30,29 +31,35 @@ impl FluorescentDiffuse {
         phi: f32,
         c: f32,
         domain: Domain,
-    ) -> Result<(Self, Vec<String>), String> {
+    ) -> Result<(Self, Vec<String>), (&'static str, String)> {
         let mut warnings = Vec::new();
         let a_max = a.max_value(domain);
         if a_max <= 0.0 {
-            return Err("the absorption spectrum is zero on the whole wavelength domain".into());
+            return Err((
+                "absorption",
+                "is zero on the whole wavelength domain".into(),
+            ));
         }
+        normalisable("its peak", a_max as f64).map_err(|m| ("absorption", m))?;
         let a = if (a_max - 1.0).abs() > 1e-3 {
             warnings.push(format!(
                 "max of the absorption spectrum is {a_max}, not 1: normalised (Jung eq. 5.1)"
             ));
-            a.scaled(1.0 / a_max)
+            a.divided(a_max as f64)
         } else {
             a
         };
-        let e_area = e.integral(domain.min, domain.max) as f32;
-        if e_area <= 0.0 {
-            return Err("the emission spectrum is zero on the whole wavelength domain".into());
+        // In f64: the area of finite f32 values may overflow f32, or be subnormal.
+        let e_area = e.integral(domain.min, domain.max);
+        if !(e_area > 0.0) {
+            return Err(("emission", "is zero on the whole wavelength domain".into()));
         }
+        normalisable("its area (nm)", e_area).map_err(|m| ("emission", m))?;
         let e = if (e_area - 1.0).abs() > 1e-3 {
             warnings.push(format!(
                 "the emission spectrum has area {e_area} nm on the domain, not 1: normalised (Jung eq. 5.2)"
             ));
-            e.scaled(1.0 / e_area)
+            e.divided(e_area)
         } else {
             e
         };

@@ -126,6 +126,7 @@ impl BfcMatrix {
             ));
         }
         let mut d = vec![0.0f32; n_em * n_ex];
+        let mut row_line = vec![0; n_em];
         let mut rows_seen = 0;
         let mut seen = vec![false; n_em];
         for (no, l) in lines {
@@ -161,19 +162,60 @@ impl BfcMatrix {
                 // Hua §5.1 cleaning: λo < λi is unphysical, negative values are noise.
                 d[o * n_ex + i] = if lo < li - 1e-3 || x < 0.0 { 0.0 } else { x };
             }
+            row_line[o] = no;
             rows_seen += 1;
         }
         if rows_seen != n_em {
             return Err(format!("expected {n_em} emission rows, found {rows_seen}"));
         }
-        Ok(BfcMatrix {
+        let m = BfcMatrix {
             em_lo,
             ex_lo,
             step,
             n_em,
             n_ex,
             d,
-        })
+        };
+        m.check_bounds(&row_line)?;
+        Ok(m)
+    }
+
+    /// The cleaned entries are at most [`MAX_BFC_ENTRY`] and every excitation column's albedo
+    /// (diagonal plus Σ_o D[o][i] = ∫ρ dλo) at most [`MAX_BFC_ALBEDO`]; errors name the line,
+    /// the row (emission) and the column (excitation) wavelengths.
+    fn check_bounds(&self, row_line: &[usize]) -> Result<(), String> {
+        for (o, line) in row_line.iter().enumerate() {
+            for i in 0..self.n_ex {
+                let x = self.d[o * self.n_ex + i];
+                if x > MAX_BFC_ENTRY {
+                    let x = if x < 1e6 {
+                        x.to_string()
+                    } else {
+                        format!("{x:e}")
+                    };
+                    return Err(format!(
+                        "line {line}: the entry of row {} nm (emission), column {} nm (excitation) \
+                         is {x}, above {MAX_BFC_ENTRY} (a reradiation matrix holds fractions of \
+                         the light, about 1 at most)",
+                        self.em(o),
+                        self.ex(i)
+                    ));
+                }
+            }
+        }
+        for i in 0..self.n_ex {
+            let total: f64 = (0..self.n_em)
+                .map(|o| self.d[o * self.n_ex + i] as f64)
+                .sum();
+            if total > MAX_BFC_ALBEDO as f64 {
+                return Err(format!(
+                    "column {} nm (excitation): its entries sum to {total:.4} (the light reflected \
+                     and reradiated per unit of light at that wavelength), above {MAX_BFC_ALBEDO}",
+                    self.ex(i)
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -269,6 +311,22 @@ impl Reradiation {
 /// Largest number of rows or columns a BFC header may announce.
 pub const MAX_BFC_CELLS: usize = 1000;
 
+/// Largest entry of a cleaned BFC matrix. A passive surface reflects and reradiates at most the
+/// light it receives, so a physical entry is about 1 at most; of the 144 RIT files the largest
+/// diagonal entry is 1.015 (GOLFYE) and the largest off-diagonal one 2.95 (IXCAXORA, which Hua
+/// §7.1 leave out as a measurement artefact); the bound keeps a margin over both (docs/gmm.md).
+pub const MAX_BFC_ENTRY: f32 = 10.0;
+
+/// Largest albedo of an excitation column (its diagonal plus Σ_o D[o][i], the reflected and
+/// reradiated light per unit of light at that wavelength). The RIT files reach 1.07 (GOLFYE),
+/// and 35.5 for IXCAXORA; above the bound the path throughputs of a few bounces overflow
+/// single precision.
+pub const MAX_BFC_ALBEDO: f32 = 100.0;
+
+/// Finest grid step of a BFC file or a model's grid, nm (no spectrometer resolves less, and
+/// `stokes gmm dense` writes 1-nm matrices).
+pub const MIN_BFC_STEP: f32 = 0.1;
+
 /// Check a BFC header `em_lo em_hi step n_ex ex_lo ex_step` before anything is allocated from
 /// it; returns (n_ex, n_em). Errors name the field.
 fn check_header(h: &[f32]) -> Result<(usize, usize), String> {
@@ -288,8 +346,10 @@ fn check_header(h: &[f32]) -> Result<(usize, usize), String> {
         }
     }
     let (em_lo, em_hi, step, n_ex, ex_step) = (h[0], h[1], h[2], h[3], h[5]);
-    if !(step > 0.0 && step <= 1e3) {
-        return Err(format!("field step: {step} nm is not in (0, 1000]"));
+    if !(MIN_BFC_STEP..=1e3).contains(&step) {
+        return Err(format!(
+            "field step: {step} nm is not in [{MIN_BFC_STEP}, 1000]"
+        ));
     }
     if (step - ex_step).abs() > 1e-6 {
         return Err(format!("field ex_step: {ex_step} differs from step {step}"));
@@ -306,6 +366,18 @@ fn check_header(h: &[f32]) -> Result<(usize, usize), String> {
         ));
     }
     Ok((n_ex as usize, rows.round() as usize + 1))
+}
+
+/// The bins of `grid` that meet the closed interval [a, b] (empty when a > b).
+pub(crate) fn bins_meeting(grid: &BinGrid, (a, b): (f64, f64)) -> std::ops::Range<usize> {
+    let n = grid.len();
+    let start = (0..n)
+        .position(|j| grid.edge(j + 1) as f64 >= a)
+        .unwrap_or(n);
+    let end = (0..n)
+        .rposition(|j| grid.edge(j) as f64 <= b)
+        .map_or(0, |j| j + 1);
+    start..end.max(start)
 }
 
 /// Linear interpolation of values tabulated at lo + k·step (k < n), zero outside the table.
@@ -444,7 +516,9 @@ impl Bbrrdf for Reradiation {
         if total <= 0.0 { 0.0 } else { kernel / total }
     }
     /// Dense upper-triangle operator: K[o][i] = (1/Δo) ∫_o ∫_i ρ (1 nm midpoint rule, exact for
-    /// the piecewise-constant cells on an integer-nm grid).
+    /// the piecewise-constant cells on an integer-nm grid). Only bins that meet the matrix's
+    /// cells are integrated (the rest are exactly zero), so the cost does not grow with the
+    /// domain outside the measured range.
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         let n = grid.len();
         let diag: Vec<f32> = (0..n)
@@ -457,9 +531,17 @@ impl Bbrrdf for Reradiation {
             let h = (z - a) / m as f32;
             (0..m).map(move |j| (a + (j as f32 + 0.5) * h, h))
         };
-        for o in 0..n {
+        // The cells of `cells` values from `lo` (`em_index`, `ex_index`), one step wider on
+        // each side against rounding.
+        let support = |lo: f32, cells: usize| {
+            let s = self.m.step as f64;
+            (lo as f64 - 1.5 * s, lo as f64 + (cells as f64 + 0.5) * s)
+        };
+        let rows = bins_meeting(grid, support(self.m.em_lo, self.m.n_em));
+        let cols = bins_meeting(grid, support(self.m.ex_lo, self.m.n_ex));
+        for o in rows {
             let wo = grid.bin_width(o);
-            for i in 0..o {
+            for i in cols.start..o.min(cols.end) {
                 let mut s = 0.0f64;
                 for (lo, ho) in nm(o) {
                     for (li, hi) in nm(i) {
@@ -505,10 +587,11 @@ mod tests {
             ("380\t780\t10\t1e9\t300\t10", "n_ex"),
             ("380\t780\t10\t48.5\t300\t10", "n_ex"),
             ("380\t780\t0\t49\t300\t0", "step"),
-            ("380\t780\t1e-7\t49\t300\t1e-7", "rows of"),
+            ("380\t780\t0.2\t49\t300\t0.2", "rows of"),
+            ("380\t780\t1e-7\t49\t300\t1e-7", "step"),
             ("380\t780\t10\t49\t300\t5", "ex_step"),
             ("780\t380\t10\t49\t300\t10", "em_hi"),
-            ("380\t99999\t0.001\t49\t300\t0.001", "em_hi"),
+            ("380\t99999\t0.5\t49\t300\t0.5", "em_hi"),
         ] {
             assert!(GOLFYE.contains(header));
             let e = BfcMatrix::parse(&GOLFYE.replacen(header, bad, 1)).unwrap_err();

@@ -7,7 +7,7 @@
 //! integrator renders this material through the same [`Bbrrdf`] interface.
 
 use super::mixture::{ConditionalMixture, GmmFile};
-use super::reradiation::lerp_on_grid;
+use super::reradiation::{bins_meeting, lerp_on_grid};
 use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
 use crate::spectrum::{BinGrid, Domain};
 
@@ -116,7 +116,9 @@ impl Bbrrdf for ReradiationGmm {
         self.cond.density(l as f64, l_new as f64, Self::axis(side)) as f32
     }
     /// Dense operator: K[o][i] = (1/Δo) ∫_o ∫_i ρ (1 nm midpoint rule between bins); the shift
-    /// inside one bin (λo > λi within it) joins that bin's diagonal (0.1 nm rule).
+    /// inside one bin (λo > λi within it) joins that bin's diagonal (0.1 nm rule). Only bins that
+    /// meet the kernel's support are integrated (the rest are exactly zero), so the cost does
+    /// not grow with the domain outside the measured range.
     fn bin_operator(&self, grid: &BinGrid) -> BinOperator {
         let n = grid.len();
         let cells = |b: usize, h: f32| {
@@ -134,14 +136,27 @@ impl Bbrrdf for ReradiationGmm {
             }
             (s / grid.bin_width(o) as f64) as f32
         };
+        let (ex, em) = if self.cond.is_empty() {
+            (0..0, 0..0)
+        } else {
+            // A hundredth of a nm wider against the rounding of the cells' midpoints.
+            let wider = |(a, b): (f64, f64)| (a - 0.01, b + 0.01);
+            let (ex, em) = self.cond.support();
+            (bins_meeting(grid, wider(ex)), bins_meeting(grid, wider(em)))
+        };
         let diag: Vec<f32> = (0..n)
             .map(|b| {
-                average_fn(|l| self.diagonal(l), grid.edge(b), grid.edge(b + 1)) + block(b, b, 0.1)
+                let shift = if ex.contains(&b) && em.contains(&b) {
+                    block(b, b, 0.1)
+                } else {
+                    0.0
+                };
+                average_fn(|l| self.diagonal(l), grid.edge(b), grid.edge(b + 1)) + shift
             })
             .collect();
         let mut k = vec![0.0f32; n * n];
-        for o in 0..n {
-            for i in 0..o {
+        for o in em {
+            for i in ex.start..o.min(ex.end) {
                 k[o * n + i] = block(o, i, 1.0);
             }
         }

@@ -8,14 +8,18 @@ use super::format::{
 };
 use super::gmm;
 use super::lights::{AreaLight, LightSet, LightShape};
+use super::limits::{
+    MAX_COORD, MAX_LIGHT_CELLS, MAX_PIXELS, MAX_PRIMITIVES, MAX_RADIANCE, MAX_REFLECTANCE,
+    MAX_SIDE, MAX_WAVELENGTH, MIN_AREA, MIN_FOV, MIN_RADIUS,
+};
 use super::media;
 use super::spectra::SpectrumContext;
 use super::{InputError, NONE, PrimInfo, Scene, ShapeInfo};
 use crate::geometry::{Accel, Camera, Sphere, Triangle};
 use crate::material::{Bbrrdf, FluorescentDiffuse, Lambert, Material, Reradiation};
-use crate::spectrum::{DEFAULT_DOMAIN, Domain, Observer};
+use crate::spectrum::{DEFAULT_DOMAIN, Domain, Observer, Spectrum};
 use glam::Vec3;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 /// Parse and validate the scene `text` of file `path` (which names the file in errors and
@@ -41,10 +45,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         named: BTreeMap::new(),
         domain,
     };
-    for (name, v) in &f.spectra {
-        let s = ctx.parse(v, &format!("spectra.{name}"))?;
-        ctx.named.insert(name.clone(), s);
-    }
+    ctx.add_named(&f.spectra)?;
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     for (name, v) in &f.materials {
@@ -58,6 +59,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
     let camera_medium = media::medium_id(&ctx, &medium_names, &f.camera.medium, "camera.medium")?;
 
     // Shapes and lights.
+    check_light_count(path, &shape_descs, domain)?;
     let mut b = Builder::default();
     for (si, s) in shape_descs.iter().enumerate() {
         let interface = media::interface(&ctx, &medium_names, s, &format!("shapes[{si}]"))?;
@@ -117,8 +119,34 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         scene.light_media = media::light_media(&scene, &light_shapes);
     }
     let unused = media::check_usage(&scene)?;
+    media::check_optical_depth(&scene)?;
     scene.warnings.extend(unused);
     Ok(scene)
+}
+
+/// Each light tabulates its emission in 1-nm cells over the domain: check, before any is built,
+/// that the lights × the domain's width stay within [`MAX_LIGHT_CELLS`].
+fn check_light_count(path: &Path, shapes: &[ShapeDesc], domain: Domain) -> Result<(), InputError> {
+    let per_light = domain.width().max(1.0) as f64;
+    let max_lights = (MAX_LIGHT_CELLS / per_light) as usize;
+    let emitting = shapes
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.emission.is_some());
+    match emitting.clone().nth(max_lights) {
+        None => Ok(()),
+        Some((si, _)) => Err(at(
+            path,
+            &format!("shapes[{si}].emission"),
+            format!(
+                "too many lights for the domain: {} emitting shapes × a {} nm domain need more \
+                 than {MAX_LIGHT_CELLS} 1-nm sampling cells (at most {max_lights} lights; merge \
+                 emitters into one mesh or narrow the domain)",
+                emitting.count(),
+                domain.width()
+            ),
+        )),
+    }
 }
 
 /// An error at JSON path `field` of `file`.
@@ -130,16 +158,24 @@ fn v3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
 
-/// The point `a`, found at JSON path `path`, if its coordinates are finite.
+/// The point `a`, found at JSON path `path`, if its coordinates are finite and within
+/// ±[`MAX_COORD`].
 fn finite3(file: &Path, path: &str, a: [f32; 3]) -> Result<Vec3, InputError> {
-    if a.iter().all(|x| x.is_finite()) {
-        Ok(v3(a))
-    } else {
-        Err(InputError::new(
-            file,
-            path,
-            format!("coordinates must be finite numbers, got {a:?}"),
+    check_point(a)
+        .map(|()| v3(a))
+        .map_err(|m| InputError::new(file, path, m))
+}
+
+/// Why point `a` cannot be traced in f32, if it cannot.
+fn check_point(a: [f32; 3]) -> Result<(), String> {
+    if !a.iter().all(|x| x.is_finite()) {
+        Err(format!("coordinates must be finite numbers, got {a:?}"))
+    } else if !a.iter().all(|x| x.abs() <= MAX_COORD) {
+        Err(format!(
+            "coordinates must be within ±{MAX_COORD:e} (larger ones overflow f32 ray tracing), got {a:?}"
         ))
+    } else {
+        Ok(())
     }
 }
 
@@ -155,6 +191,16 @@ fn domain(path: &Path, d: Option<[f32; 2]>) -> Result<Domain, InputError> {
                     format!("needs 0 ≤ min < max, got [{a}, {b}]"),
                 ));
             }
+            if b > MAX_WAVELENGTH {
+                return Err(at(
+                    path,
+                    "domain",
+                    format!(
+                        "must lie within [0, {MAX_WAVELENGTH}] nm (spectra are tabulated in 1-nm \
+                         cells over it), got [{a:?}, {b:?}]"
+                    ),
+                ));
+            }
             Ok(Domain { min: a, max: b })
         }
     }
@@ -164,32 +210,49 @@ fn camera(path: &Path, c: &CameraDesc) -> Result<Camera, InputError> {
     let origin = finite3(path, "camera.origin", c.origin)?;
     let target = finite3(path, "camera.target", c.target)?;
     let up = finite3(path, "camera.up", c.up)?;
-    if (target - origin).length() <= 0.0 {
+    let forward = (target - origin).normalize_or_zero();
+    if forward == Vec3::ZERO {
         return Err(at(
             path,
             "camera.target",
             "must differ from camera.origin".into(),
         ));
     }
-    if (target - origin).normalize().cross(up).length() < 1e-6 {
+    if up.normalize_or_zero() == Vec3::ZERO {
+        return Err(at(path, "camera.up", "must not be zero".into()));
+    }
+    if forward.cross(up.normalize()).length() < 1e-6 {
         return Err(at(
             path,
             "camera.up",
             "must not be parallel to the viewing direction".into(),
         ));
     }
-    if !(c.fov > 0.0 && c.fov < 180.0) {
+    if !(c.fov >= MIN_FOV && c.fov < 180.0) {
+        // Below MIN_FOV the film's area underflows in f32 and the camera's pdfs overflow.
         return Err(at(
             path,
             "camera.fov",
-            format!("must be in (0, 180) degrees, got {}", c.fov),
+            format!("must be in [{MIN_FOV}, 180) degrees, got {}", c.fov),
         ));
     }
-    if c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384 {
+    for (v, field) in [(c.width, "camera.width"), (c.height, "camera.height")] {
+        if !(1..=MAX_SIDE).contains(&v) {
+            return Err(at(
+                path,
+                field,
+                format!("must be 1–{MAX_SIDE} pixels, got {v}"),
+            ));
+        }
+    }
+    if c.width as u64 * c.height as u64 > MAX_PIXELS {
         return Err(at(
             path,
-            "camera.width",
-            format!("resolution must be 1–16384, got {}×{}", c.width, c.height),
+            "camera.height",
+            format!(
+                "{}×{} is more than {MAX_PIXELS} pixels (the film would not fit in memory)",
+                c.width, c.height
+            ),
         ));
     }
     Ok(Camera::look_at(
@@ -200,6 +263,40 @@ fn camera(path: &Path, c: &CameraDesc) -> Result<Camera, InputError> {
         c.fov_axis == FovAxis::X,
         c.width,
         c.height,
+    ))
+}
+
+/// A passive surface reflects at most the light it receives: the reflectance of material
+/// `base` may not exceed [`MAX_REFLECTANCE`] anywhere on the domain (beyond f32 rounding), or
+/// path throughputs grow with every bounce until they overflow. The fluorescent material's
+/// total albedo, r(1 − c·a) + c·a·Φ·∫e, is then at most 1 too, since a ≤ 1, ∫e = 1 and c, Φ ≤ 1.
+fn check_reflectance(ctx: &SpectrumContext, base: &str, r: &Spectrum) -> Result<(), InputError> {
+    let d = ctx.domain;
+    let max = r.max_value(d);
+    if max <= MAX_REFLECTANCE * (1.0 + 1e-6) {
+        return Ok(());
+    }
+    let shown = if max < 1e6 {
+        max.to_string()
+    } else {
+        format!("{max:e}")
+    };
+    // Where it is largest, to a quarter nm.
+    let n = ((d.width() * 4.0) as usize).max(1);
+    let at_max = (0..=n)
+        .map(|i| d.min + d.width() * i as f32 / n as f32)
+        .fold((d.min, f32::MIN), |best, l| {
+            let v = r.eval(l);
+            if v > best.1 { (l, v) } else { best }
+        })
+        .0;
+    Err(at(
+        ctx.file,
+        &format!("{base}.reflectance"),
+        format!(
+            "is {shown} at {at_max} nm, above {MAX_REFLECTANCE}: a passive surface reflects at most \
+             the light it receives"
+        ),
     ))
 }
 
@@ -215,11 +312,7 @@ fn material(
     Ok(match desc {
         MaterialDesc::Lambert { reflectance } => {
             let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
-            if r.max_value(domain) > 1.0 {
-                warnings.push(format!(
-                    "{base}.reflectance exceeds 1: the surface creates energy"
-                ));
-            }
+            check_reflectance(ctx, base, &r)?;
             Material::Lambert(Lambert { reflectance: r })
         }
         MaterialDesc::FluorescentDiffuse {
@@ -243,13 +336,9 @@ fn material(
             let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
             let a = ctx.parse(&absorption, &format!("{base}.absorption"))?;
             let e = ctx.parse(&emission, &format!("{base}.emission"))?;
-            if r.max_value(domain) > 1.0 {
-                warnings.push(format!(
-                    "{base}.reflectance exceeds 1: the surface creates energy"
-                ));
-            }
+            check_reflectance(ctx, base, &r)?;
             let (m, w) = FluorescentDiffuse::new(r, a, e, quantum_yield, concentration, domain)
-                .map_err(|m| err(base, m))?;
+                .map_err(|(f, m)| err(&format!("{base}.{f}"), m))?;
             warnings.extend(w.into_iter().map(|w| format!("{base}: {w}")));
             Material::Fluorescent(m)
         }
@@ -301,6 +390,8 @@ struct Builder {
     lights: Vec<AreaLight>,
     /// The shape of each light.
     light_shapes: Vec<u32>,
+    /// The shape each name (given or default) belongs to.
+    names: HashMap<String, usize>,
 }
 
 /// An error at field `field` of the shape at JSON path `base` (the shape itself if empty).
@@ -341,7 +432,7 @@ impl Builder {
                 })?,
         };
         let shape_id = self.shapes.len() as u32;
-        let name = s.name.clone().unwrap_or_else(|| format!("shape{si}"));
+        let name = self.unique_name(ctx.file, &base, si, s)?;
         self.shapes.push(ShapeInfo {
             name: name.clone(),
             material,
@@ -358,18 +449,11 @@ impl Builder {
             shape: shape_id,
         };
 
-        let (mut tris, sphere) = geometry(ctx.file, &ctx.dir, &base, &s.geometry)?;
-        // Degenerate triangles.
-        for (k, t) in tris.iter_mut().enumerate() {
-            if !(t.area() > 0.0) || !t.area().is_finite() {
-                return Err(err(
-                    "",
-                    format!("degenerate geometry: triangle {k} has zero area"),
-                ));
-            }
-            if s.flip_normals {
-                t.v.swap(1, 2);
-            }
+        let budget = MAX_PRIMITIVES - self.triangles.len() - self.spheres.len();
+        let (mut tris, sphere) = geometry(ctx.file, &ctx.dir, &base, &s.geometry, budget)?;
+        check_areas(&tris).map_err(|m| err("", m))?;
+        if s.flip_normals {
+            tris.iter_mut().for_each(|t| t.v.swap(1, 2));
         }
         let area: f32 = if let Some(sp) = sphere {
             sp.area()
@@ -400,6 +484,57 @@ impl Builder {
         }
         Ok(())
     }
+
+    /// The name of shape `s` (number `si`, at JSON path `base`): its `name`, or `shape<si>`;
+    /// names identify regions and lights, so a name used twice is an error.
+    fn unique_name(
+        &mut self,
+        file: &Path,
+        base: &str,
+        si: usize,
+        s: &ShapeDesc,
+    ) -> Result<String, InputError> {
+        let name = s.name.clone().unwrap_or_else(|| format!("shape{si}"));
+        if let Some(&other) = self.names.get(&name) {
+            let (field, what) = if s.name.is_some() {
+                ("name", format!("'{name}'"))
+            } else {
+                (
+                    "",
+                    format!("the default name '{name}' of this unnamed shape"),
+                )
+            };
+            return Err(shape_err(
+                file,
+                base,
+                field,
+                format!(
+                    "{what} is already the name of shapes[{other}] (shape names identify \
+                     regions and lights, and must be unique)"
+                ),
+            ));
+        }
+        self.names.insert(name.clone(), si);
+        Ok(name)
+    }
+}
+
+/// Why triangles `tris` cannot be rendered, if one is degenerate.
+fn check_areas(tris: &[Triangle]) -> Result<(), String> {
+    for (k, t) in tris.iter().enumerate() {
+        let a = t.area();
+        if !a.is_finite() {
+            return Err(format!(
+                "triangle {k} has a non-finite area ({a}): its coordinates are not finite or too large"
+            ));
+        }
+        if a < MIN_AREA {
+            return Err(format!(
+                "degenerate geometry: triangle {k} has zero area ({a}, below {MIN_AREA:e})"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The light of shape `name` at JSON path `base`, emitting `e` from `shape` of area `area`.
@@ -419,9 +554,28 @@ fn area_light(
             format!("must be a finite non-negative number, got {}", e.scale),
         ));
     }
-    let spec = ctx
-        .parse(&e.spectrum, &format!("{base}.emission.spectrum"))?
-        .scaled(e.scale);
+    let spec = ctx.parse(&e.spectrum, &format!("{base}.emission.spectrum"))?;
+    let peak = largest_value(&spec) as f64;
+    if peak * e.scale as f64 > MAX_RADIANCE {
+        let field = if peak > MAX_RADIANCE || e.scale == 1.0 {
+            "emission.spectrum"
+        } else {
+            "emission.scale"
+        };
+        return Err(shape_err(
+            ctx.file,
+            base,
+            field,
+            format!(
+                "emitted radiance spectrum × scale = {:?} × {:?} = {:.3e} exceeds \
+                 {MAX_RADIANCE:e} (f32 radiance arithmetic would overflow)",
+                peak as f32,
+                e.scale,
+                peak * e.scale as f64
+            ),
+        ));
+    }
+    let spec = spec.scaled(e.scale);
     Ok(AreaLight::new(
         name,
         shape,
@@ -430,6 +584,18 @@ fn area_light(
         area,
         ctx.domain,
     ))
+}
+
+/// The largest value spectrum `s` takes anywhere.
+fn largest_value(s: &Spectrum) -> f32 {
+    match s {
+        Spectrum::Constant(v) => *v,
+        Spectrum::Box { value, .. } => *value,
+        Spectrum::Gaussian { peak, .. } => *peak,
+        Spectrum::Tabulated { ys: v, .. } | Spectrum::Binned { values: v, .. } => {
+            v.iter().copied().fold(0.0, f32::max)
+        }
+    }
 }
 
 /// A light made of (a copy of) triangles `tris` of total area `area`.
@@ -448,13 +614,21 @@ fn triangles_light_shape(tris: &[Triangle], area: f32) -> LightShape {
     }
 }
 
-/// The triangles, or the sphere, of the shape at JSON path `base` (relative files are in `dir`).
+/// The triangles, or the sphere, of the shape at JSON path `base` (relative files are in `dir`),
+/// at most `budget` of them (the primitives the scene may still add).
 fn geometry(
     file: &Path,
     dir: &Path,
     base: &str,
     g: &ShapeGeometry,
+    budget: usize,
 ) -> Result<(Vec<Triangle>, Option<Sphere>), InputError> {
+    let too_many = |n: usize| {
+        format!(
+            "{n} triangles would take the scene past its limit of {MAX_PRIMITIVES} primitives \
+             ({budget} left)"
+        )
+    };
     let err = |p: &str, m: String| shape_err(file, base, p, m);
     let mut tris: Vec<Triangle> = Vec::new();
     match g {
@@ -484,6 +658,17 @@ fn geometry(
             if !(r > 0.0 && r.is_finite()) {
                 return Err(err("radius", format!("must be a positive number, got {r}")));
             }
+            if !(MIN_RADIUS..=MAX_COORD).contains(&r) {
+                return Err(err(
+                    "radius",
+                    format!(
+                        "must be in [{MIN_RADIUS:e}, {MAX_COORD:e}] (f32 ray tracing), got {r:e}"
+                    ),
+                ));
+            }
+            if budget == 0 {
+                return Err(err("", too_many(1).replace("1 triangles", "a sphere")));
+            }
             let sphere = Sphere {
                 center: c,
                 radius: r,
@@ -494,6 +679,16 @@ fn geometry(
             for (i, x) in vertices.iter().enumerate() {
                 finite3(file, &format!("{base}.vertices[{i}]"), *x)?;
             }
+            if indices.is_empty() {
+                return Err(err(
+                    "indices",
+                    "needs at least one triangle, got none".into(),
+                ));
+            }
+            if indices.len() > budget {
+                return Err(err("indices", too_many(indices.len())));
+            }
+            tris.reserve(indices.len());
             for (k, idx) in indices.iter().enumerate() {
                 if let Some(bad) = idx.iter().find(|&&i| i as usize >= vertices.len()) {
                     return Err(err(
@@ -514,21 +709,31 @@ fn geometry(
             translate,
         } => {
             let scale = scale.unwrap_or(1.0);
-            let tr = v3(translate.unwrap_or([0.0; 3]));
-            if !(scale.is_finite() && scale != 0.0) {
+            let tr = finite3(
+                file,
+                &format!("{base}.translate"),
+                translate.unwrap_or([0.0; 3]),
+            )?;
+            if !(scale.is_finite() && scale != 0.0 && scale.abs() <= MAX_COORD) {
                 return Err(err(
                     "scale",
-                    format!("must be a non-zero finite number, got {scale}"),
+                    format!("must be a non-zero finite number within ±{MAX_COORD:e}, got {scale}"),
                 ));
             }
-            tris = obj_triangles(&dir.join(obj), scale, tr).map_err(|m| err("file", m))?;
+            tris = obj_triangles(&dir.join(obj), scale, tr, budget).map_err(|m| err("file", m))?;
         }
     }
     Ok((tris, None))
 }
 
-/// The triangles of OBJ file `full`, scaled by `scale`, then translated by `tr`.
-fn obj_triangles(full: &Path, scale: f32, tr: Vec3) -> Result<Vec<Triangle>, String> {
+/// The triangles of OBJ file `full`, scaled by `scale`, then translated by `tr`; at most
+/// `budget` of them.
+fn obj_triangles(
+    full: &Path,
+    scale: f32,
+    tr: Vec3,
+    budget: usize,
+) -> Result<Vec<Triangle>, String> {
     let (models, _) = tobj::load_obj(
         full,
         &tobj::LoadOptions {
@@ -538,20 +743,35 @@ fn obj_triangles(full: &Path, scale: f32, tr: Vec3) -> Result<Vec<Triangle>, Str
         },
     )
     .map_err(|e| format!("cannot load OBJ '{}': {e}", full.display()))?;
-    let mut tris = Vec::new();
+    let n: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    if n > budget {
+        return Err(format!(
+            "OBJ '{}' has {n} triangles: more than the {budget} the scene may still add (at most \
+             {MAX_PRIMITIVES} primitives)",
+            full.display()
+        ));
+    }
+    let mut tris = Vec::with_capacity(n);
     for m in models {
-        let pos = &m.mesh.positions;
-        let idx = &m.mesh.indices;
-        tris.reserve(idx.len() / 3);
-        for t in idx.chunks_exact(3) {
-            let p = |i: u32| {
-                Vec3::new(
-                    pos[3 * i as usize],
-                    pos[3 * i as usize + 1],
-                    pos[3 * i as usize + 2],
-                ) * scale
-                    + tr
-            };
+        // Every vertex, transformed and checked (the indices are checked by tobj).
+        let pos: Vec<Vec3> = m
+            .mesh
+            .positions
+            .chunks_exact(3)
+            .enumerate()
+            .map(|(k, p)| {
+                let q = Vec3::new(p[0], p[1], p[2]) * scale + tr;
+                check_point(q.to_array()).map(|()| q).map_err(|e| {
+                    format!(
+                        "OBJ '{}', object '{}', vertex {k} after scale and translate: {e}",
+                        full.display(),
+                        m.name
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        for t in m.mesh.indices.chunks_exact(3) {
+            let p = |i: u32| pos.get(i as usize).copied().unwrap_or(Vec3::NAN);
             tris.push(Triangle::new(p(t[0]), p(t[1]), p(t[2])));
         }
     }

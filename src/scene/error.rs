@@ -70,3 +70,97 @@ pub fn from_json_value<T: serde::de::DeserializeOwned>(
         InputError::new(file, path, format!("{inner}"))
     })
 }
+
+/// Reject a JSON object that defines the same key twice, anywhere in `text` (serde keeps the
+/// last one silently, so a second `materials.white` would replace the first). The error names
+/// the JSON path of the repeated key. Malformed JSON passes: the typed parse reports it.
+pub fn reject_duplicate_keys(file: &Path, text: &str) -> Result<(), InputError> {
+    use serde::de::DeserializeSeed;
+    let found = std::cell::RefCell::new(None);
+    let mut de = serde_json::Deserializer::from_str(text);
+    let walk = duplicates::Walk {
+        path: String::new(),
+        found: &found,
+    };
+    let _ = walk.deserialize(&mut de);
+    match found.into_inner() {
+        Some(path) => Err(InputError::new(
+            file,
+            path,
+            "defined twice in the same object (names and keys must be unique)",
+        )),
+        None => Ok(()),
+    }
+}
+
+/// A serde visitor that walks any JSON value, keeping the JSON path, and stops at the first
+/// object key seen twice.
+mod duplicates {
+    use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
+    use std::cell::RefCell;
+    use std::collections::HashSet;
+    use std::fmt;
+
+    pub struct Walk<'a> {
+        pub path: String,
+        /// The path of the first repeated key.
+        pub found: &'a RefCell<Option<String>>,
+    }
+
+    impl<'de> DeserializeSeed<'de> for Walk<'_> {
+        type Value = ();
+        fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_any(self)
+        }
+    }
+
+    macro_rules! scalars {
+        ($($f:ident: $t:ty),*) => {
+            $(fn $f<E: de::Error>(self, _: $t) -> Result<(), E> { Ok(()) })*
+        };
+    }
+
+    impl<'de> Visitor<'de> for Walk<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("any JSON value")
+        }
+        scalars!(visit_bool: bool, visit_i64: i64, visit_u64: u64, visit_f64: f64,
+                 visit_str: &str, visit_i128: i128, visit_u128: u128);
+        fn visit_unit<E: de::Error>(self) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            let mut i = 0;
+            loop {
+                let child = Walk {
+                    path: format!("{}[{i}]", self.path),
+                    found: self.found,
+                };
+                if seq.next_element_seed(child)?.is_none() {
+                    return Ok(());
+                }
+                i += 1;
+            }
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+            let mut seen = HashSet::new();
+            while let Some(key) = map.next_key::<String>()? {
+                let path = if self.path.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{}.{key}", self.path)
+                };
+                if !seen.insert(key) {
+                    *self.found.borrow_mut() = Some(path);
+                    return Err(de::Error::custom("duplicate key"));
+                }
+                map.next_value_seed(Walk {
+                    path,
+                    found: self.found,
+                })?;
+            }
+            Ok(())
+        }
+    }
+}

@@ -8,7 +8,7 @@
 //! `#[serde(flatten)]`; so `shape_kinds!` writes the fields common to every shape into one
 //! struct per kind, and serde rejects misplaced fields and enforces the required ones.
 
-use super::error::{InputError, from_json_str, from_json_value};
+use super::error::{InputError, from_json_str, from_json_value, reject_duplicate_keys};
 use serde::Deserialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -38,8 +38,11 @@ pub struct SceneFile {
     pub shapes: Vec<Value>,
 }
 
-/// Read the scene file `file` with text `text`: its top level, then every shape.
+/// Read the scene file `file` with text `text`: its top level, then every shape. A leading
+/// UTF-8 byte-order mark is skipped; a key defined twice in an object is an error.
 pub fn read(file: &Path, text: &str) -> Result<(SceneFile, Vec<ShapeDesc>), InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    reject_duplicate_keys(file, text)?;
     let f: SceneFile = from_json_str(file, text)?;
     let shapes = f
         .shapes

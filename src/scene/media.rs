@@ -8,12 +8,13 @@
 
 use super::error::from_json_value;
 use super::format::{FluorescenceDesc, MediumDesc, PhaseDesc, ShapeDesc};
+use super::limits::{MAX_COORD, MAX_OPTICAL_DEPTH};
 use super::spectra::SpectrumContext;
 use super::{InputError, NONE, Scene};
-use crate::geometry::ray::spawn_ray;
+use crate::geometry::ray::cross_boundary_ray;
 use crate::medium::grid::DensityGrid;
 use crate::medium::{Coefficients, Density, Fluorophore, GridDensity, Medium};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, normalisable};
 use serde_json::Value;
 use std::collections::BTreeMap;
 
@@ -160,6 +161,18 @@ fn grid_density(
             format!("grid volume '{}': {m}", full.display()),
         )
     })?;
+    if grid.min.abs().max(grid.max.abs()).max_element() > MAX_COORD {
+        return Err(InputError::new(
+            ctx.file,
+            format!("{base}.file"),
+            format!(
+                "grid volume '{}': its bounding box {} – {} reaches beyond ±{MAX_COORD:e}",
+                full.display(),
+                grid.min,
+                grid.max
+            ),
+        ));
+    }
     Ok(Density::Grid(Box::new(GridDensity::new(grid, scale))))
 }
 
@@ -195,13 +208,15 @@ fn fluorophore(
             "is zero on the whole wavelength domain".into(),
         ));
     }
-    let e_area = e.integral(domain.min, domain.max) as f32;
+    let e_area = e.integral(domain.min, domain.max);
     if !(e_area > 0.0) {
         return Err(err(
             "emission",
             "is zero on the whole wavelength domain".into(),
         ));
     }
+    normalisable("its peak", a_max as f64).map_err(|m| err("absorption", m))?;
+    normalisable("its area (nm)", e_area).map_err(|m| err("emission", m))?;
     if (a_max - 1.0).abs() > 1e-3 {
         warnings.push(format!(
             "{base}.absorption: max is {a_max}, not 1: normalised (the concentration is the peak extinction)"
@@ -213,9 +228,9 @@ fn fluorophore(
         ));
     }
     Ok(Fluorophore::new(
-        a.scaled(1.0 / a_max),
+        a.divided(a_max as f64),
         f.concentration,
-        e.scaled(1.0 / e_area),
+        e.divided(e_area),
         f.quantum_yield,
         domain,
     ))
@@ -312,6 +327,67 @@ pub fn check_usage(scene: &Scene) -> Result<Vec<String>, InputError> {
     Ok(warnings)
 }
 
+/// Check that no medium is so dense that tracking through it would not end: its largest
+/// collision coefficient (σ̂t or σ̂s, times the grid's density) times its extent (the bounding
+/// box of the shapes it fills, of its grid, or of the scene for the camera's medium) is at most
+/// [`MAX_OPTICAL_DEPTH`].
+pub fn check_optical_depth(scene: &Scene) -> Result<(), InputError> {
+    use glam::Vec3;
+    let n = scene.media.len();
+    let nt = scene.triangles.len();
+    let prim_bounds = |p: usize| -> (Vec3, Vec3) {
+        if p < nt {
+            let v = scene.triangles[p].v;
+            (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]))
+        } else {
+            let s = &scene.spheres[p - nt];
+            (s.center - s.radius, s.center + s.radius)
+        }
+    };
+    // Per medium, then (last) for the whole scene: the bounding box.
+    let mut lo = vec![Vec3::INFINITY; n + 1];
+    let mut hi = vec![Vec3::NEG_INFINITY; n + 1];
+    for (p, info) in scene.prims.iter().enumerate() {
+        let (a, b) = prim_bounds(p);
+        let interior = scene.shapes[info.shape as usize]
+            .interface
+            .map_or(NONE, |i| i.interior);
+        for k in [n, interior as usize] {
+            if k <= n {
+                lo[k] = lo[k].min(a);
+                hi[k] = hi[k].max(b);
+            }
+        }
+    }
+    let size = |k: usize| (hi[k] - lo[k]).max(Vec3::ZERO).length();
+    for (m, medium) in scene.media.iter().enumerate() {
+        let mut extent = if hi[m].x >= lo[m].x { size(m) } else { size(n) };
+        let (density, with) = match &medium.density {
+            crate::medium::Density::Homogeneous => (1.0, ""),
+            crate::medium::Density::Grid(g) => {
+                extent = extent.min((g.grid.max - g.grid.min).length());
+                let d = g.scale as f64 * g.grid.max_density() as f64;
+                (d, " (with the grid's largest density × density_scale)")
+            }
+        };
+        let sigma = medium.coefficients.majorant_over(scene.domain) as f64 * density;
+        let depth = sigma * extent as f64;
+        if !(depth <= MAX_OPTICAL_DEPTH) {
+            return Err(InputError::new(
+                &scene.file,
+                format!("media.{}", scene.medium_names[m]),
+                format!(
+                    "too dense: its largest collision coefficient {sigma:.3e} per unit{with} \
+                     across its extent of {extent:.3e} \
+                     units is an optical depth of {depth:.3e}, more than {MAX_OPTICAL_DEPTH:e} \
+                     (tracking would take about that many steps per ray)"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Follow probe rays from the camera through every surface and check that each interface a ray
 /// crosses has, on the side the ray comes from, the medium the ray is in. Errors name both
 /// shapes involved.
@@ -364,7 +440,7 @@ pub fn check_nesting(scene: &Scene) -> Result<(), InputError> {
                     current = far;
                     from = format!("shape '{shape}'");
                 }
-                ray = spawn_ray(it.p, it.n, ray.d);
+                ray = cross_boundary_ray(it.p, it.n, ray.d);
             }
         }
     }
@@ -408,7 +484,7 @@ pub fn medium_at(scene: &Scene, p: glam::Vec3) -> u32 {
         if let Some(i) = scene.interface(&it) {
             current = i.towards(it.n, ray.d);
         }
-        ray = spawn_ray(it.p, it.n, ray.d);
+        ray = cross_boundary_ray(it.p, it.n, ray.d);
         travelled = (ray.o - o).length();
         if travelled >= dist {
             break;

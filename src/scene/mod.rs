@@ -7,6 +7,7 @@ pub mod error;
 mod format;
 mod gmm;
 pub mod lights;
+pub mod limits;
 pub mod media;
 pub mod spectra;
 
@@ -122,7 +123,7 @@ impl Scene {
             if it.material != NONE || it.light != NONE {
                 return Some(it);
             }
-            ray = crate::geometry::ray::spawn_ray(it.p, it.n, ray.d);
+            ray = crate::geometry::ray::cross_boundary_ray(it.p, it.n, ray.d);
         }
         None
     }

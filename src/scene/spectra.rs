@@ -51,6 +51,52 @@ pub struct SpectrumContext<'a> {
 }
 
 impl SpectrumContext<'_> {
+    /// Parse the named spectra `descs` (the file's `spectra`) into `self.named`. A spectrum may
+    /// be another's name, defined before or after it: each is parsed after the one it names, and
+    /// names that refer to each other in a cycle are an error that lists the cycle.
+    pub fn add_named(&mut self, descs: &BTreeMap<String, Value>) -> Result<(), InputError> {
+        for start in descs.keys() {
+            // Follow the names from `start` to one already parsed or one that is not a name.
+            let mut chain: Vec<&str> = Vec::new();
+            let mut on_chain = std::collections::HashSet::new();
+            let mut name = start.as_str();
+            while !self.named.contains_key(name) {
+                if !on_chain.insert(name) {
+                    let i = chain.iter().position(|n| *n == name).unwrap_or(0);
+                    let cycle: Vec<&str> = chain[i..].iter().copied().chain([name]).collect();
+                    return Err(InputError::new(
+                        self.file,
+                        format!("spectra.{name}"),
+                        format!(
+                            "named spectra refer to each other in a cycle: {}",
+                            cycle.join(" → ")
+                        ),
+                    ));
+                }
+                chain.push(name);
+                match &descs[name] {
+                    Value::String(next) if descs.contains_key(next) => name = next,
+                    Value::String(next) => {
+                        return Err(InputError::new(
+                            self.file,
+                            format!("spectra.{name}"),
+                            format!(
+                                "unknown spectrum name '{next}' (named spectra: {})",
+                                descs.keys().cloned().collect::<Vec<_>>().join(", ")
+                            ),
+                        ));
+                    }
+                    _ => break,
+                }
+            }
+            for n in chain.into_iter().rev() {
+                let s = self.parse(&descs[n], &format!("spectra.{n}"))?;
+                self.named.insert(n.to_string(), s);
+            }
+        }
+        Ok(())
+    }
+
     /// Parse a spectrum at JSON path `path`. Values must be finite and non-negative.
     pub fn parse(&self, v: &Value, path: &str) -> Result<Spectrum, InputError> {
         let err = |m: String| InputError::new(self.file, path, m);
@@ -107,10 +153,18 @@ impl SpectrumContext<'_> {
                     };
                     check_increasing(&xs).map_err(err)?;
                     let k = scale.unwrap_or(1.0);
-                    Spectrum::Tabulated {
-                        xs,
-                        ys: ys.into_iter().map(|y: f32| y * k).collect(),
+                    let ys: Vec<f32> = ys.into_iter().map(|y: f32| y * k).collect();
+                    if !(k.is_finite() && k >= 0.0) || ys.iter().any(|y| !y.is_finite()) {
+                        return Err(InputError::new(
+                            self.file,
+                            format!("{path}.scale"),
+                            format!(
+                                "must be finite and non-negative, with every value × scale \
+                                 finite in f32; got scale {k}"
+                            ),
+                        ));
                     }
+                    Spectrum::Tabulated { xs, ys }
                 }
                 SpectrumDesc::Binned { lo, width, values } => {
                     if !(width > 0.0) || values.is_empty() {
@@ -135,8 +189,12 @@ impl SpectrumContext<'_> {
 }
 
 fn check_increasing(xs: &[f32]) -> Result<(), String> {
-    if xs.is_empty() {
-        return Err("a tabulated spectrum needs at least one (wavelength, value) pair".into());
+    if xs.len() < 2 {
+        // Piecewise linear through one point is zero everywhere but at that point: black.
+        return Err(format!(
+            "a tabulated spectrum needs at least two (wavelength, value) pairs, got {}",
+            xs.len()
+        ));
     }
     for w in xs.windows(2) {
         if !(w[1] > w[0]) {
@@ -184,6 +242,8 @@ fn check_values(s: &Spectrum) -> Result<(), String> {
 pub fn parse_csv(text: &str) -> Result<(Vec<f32>, Vec<f32>), String> {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
+    // A byte-order mark (spreadsheets write one) would make the first line a "header".
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (i, line) in text.lines().enumerate() {
         let l = line.split('#').next().unwrap_or("").trim();
         if l.is_empty() {

@@ -254,6 +254,39 @@ impl Spectrum {
         .min(self.eval(d.min).min(self.eval(d.max)))
     }
 
+    /// The same spectrum divided by `by` (its peak or area, to make that 1), each value
+    /// divided in f64: the f32 reciprocal of a `by` near the ends of the f32 range would lose
+    /// precision or overflow. Check `by` with [`normalisable`] first.
+    pub fn divided(&self, by: f64) -> Spectrum {
+        let d = |v: f32| (v as f64 / by) as f32;
+        match self {
+            Spectrum::Constant(v) => Spectrum::Constant(d(*v)),
+            Spectrum::Box { lo, hi, value } => Spectrum::Box {
+                lo: *lo,
+                hi: *hi,
+                value: d(*value),
+            },
+            Spectrum::Gaussian {
+                center,
+                sigma,
+                peak,
+            } => Spectrum::Gaussian {
+                center: *center,
+                sigma: *sigma,
+                peak: d(*peak),
+            },
+            Spectrum::Tabulated { xs, ys } => Spectrum::Tabulated {
+                xs: xs.clone(),
+                ys: ys.iter().map(|&y| d(y)).collect(),
+            },
+            Spectrum::Binned { lo, width, values } => Spectrum::Binned {
+                lo: *lo,
+                width: *width,
+                values: values.iter().map(|&y| d(y)).collect(),
+            },
+        }
+    }
+
     /// The same spectrum multiplied by `k`.
     pub fn scaled(&self, k: f32) -> Spectrum {
         match self {
@@ -287,6 +320,29 @@ impl Spectrum {
     /// True if the spectrum is zero everywhere on the domain.
     pub fn is_zero_on(&self, d: Domain) -> bool {
         self.integral(d.min, d.max).abs() == 0.0 && self.max_value(d) == 0.0
+    }
+}
+
+/// Whether a spectrum whose peak or area (`what`) is `v` can be normalised to 1 with
+/// [`Spectrum::divided`]: `v` must be finite and at least [`f32::MIN_POSITIVE`] (about 1.2e-38,
+/// the smallest normal f32). Below it, a peak is subnormal and keeps only a few significant bits
+/// of the spectrum's shape (and its f32 reciprocal overflows). An area above `f32::MAX` is fine:
+/// the division is in f64.
+pub fn normalisable(what: &str, v: f64) -> Result<(), String> {
+    // As the f32 it was read as, when it is one (1e-45, not 1.401298464324817e-45).
+    let shown = match v as f32 {
+        f if f != 0.0 && f.is_finite() => format!("{f:e}"),
+        _ => format!("{v:e}"),
+    };
+    if v >= f32::MIN_POSITIVE as f64 && v.is_finite() {
+        Ok(())
+    } else if v > 0.0 && v < f32::MIN_POSITIVE as f64 {
+        Err(format!(
+            "{what} {shown} is too small to normalise (below {:e}, the smallest normal f32)",
+            f32::MIN_POSITIVE
+        ))
+    } else {
+        Err(format!("{what} {shown} cannot be normalised to 1"))
     }
 }
 

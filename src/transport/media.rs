@@ -8,6 +8,7 @@
 //! the HWSS balance heuristic over the lanes' full path pdfs (Mojzík §6.2; docs/design.md §4).
 
 use crate::geometry::Ray;
+pub use crate::geometry::ray::cross_boundary_ray;
 use crate::geometry::ray::spawn_ray_to;
 use crate::medium::{Density, Flight, FreeFlight, GridDensity, Medium, Tracking};
 use crate::scene::{NONE, Scene};

@@ -108,10 +108,18 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
 fn wavelength_pdfs(path: &mut FullPath, i: usize, m: &impl Bbrrdf, ws: ShiftSampling) {
     let (li, lo, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
     if m.is_fluorescent() {
-        path.pc[i] = m.pdf(lo, li, shifted, PathSide::Camera, ws) as f64;
-        path.big_pc[i] = m.fluorescence_probability_camera(lo) as f64;
-        path.pl[i] = m.pdf(li, lo, shifted, PathSide::Light, ws) as f64;
-        path.big_pl[i] = m.fluorescence_probability_light(li) as f64;
+        let big_pc = m.fluorescence_probability_camera(lo);
+        let big_pl = m.fluorescence_probability_light(li);
+        path.big_pc[i] = big_pc as f64;
+        path.big_pl[i] = big_pl as f64;
+        if shifted {
+            path.pc[i] = m.pdf(lo, li, true, PathSide::Camera, ws) as f64;
+            path.pl[i] = m.pdf(li, lo, true, PathSide::Light, ws) as f64;
+        } else {
+            // no fluorescent interaction: 1 − P_c and 1 − P_l, as `Bbrrdf::pdf` gives them
+            path.pc[i] = (1.0 - big_pc) as f64;
+            path.pl[i] = (1.0 - big_pl) as f64;
+        }
     } else {
         path.pc[i] = 1.0;
         path.big_pc[i] = 0.0;
@@ -233,9 +241,12 @@ impl Bdpt {
             }
         }
         fill_pdfs(self, scene, path, s, t);
-        // The strategy's own directional and wavelength pdf.
+        // The strategy's own directional and wavelength pdf (eq. 6.14). This strategy has just
+        // sampled the path and the path carries light, so a zero, NaN or infinite pdf is a lost
+        // contribution, not a path the strategy cannot make: counted (docs/bdpt.md).
         let p = path.strategy_pdf(s, self.mode);
-        if p.is_nan() || p <= 0.0 || !p.is_finite() {
+        if !(p > 0.0 && p.is_finite()) {
+            sink.stats.dropped_strategy_pdfs += (f != 0.0) as u64;
             return;
         }
         // Media: the sampled free flights' weights, and their pdfs in the MIS weights.
@@ -252,7 +263,12 @@ impl Bdpt {
         } else if p_mis > 0.0 && p_mis.is_finite() {
             path.mis_weight(s, p_mis, self.mode, self.mis)
         } else {
-            0.0
+            // With the free-flight pdfs at the final wavelengths folded in, p(s) may be 0 where
+            // the reset moved a segment to a wavelength its sub-path could not collide at; the
+            // weight is then 0 (the limit of eq. 6.15), and a loss only if no strategy is left.
+            let lost = p_mis != 0.0 || !path.any_strategy(self.mode);
+            sink.stats.dropped_strategy_pdfs += (lost && f != 0.0) as u64;
+            return;
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
         let c = (w * f / p) as f32;

@@ -10,7 +10,7 @@
 //! ([`SegmentLog`]) so that the integrator can evaluate distance pdfs in both directions later.
 
 use crate::geometry::Ray;
-use crate::geometry::ray::spawn_ray;
+use crate::geometry::ray::{cross_boundary_ray, spawn_ray};
 use crate::integrator::Sampler;
 use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
@@ -163,7 +163,7 @@ pub fn random_walk<P: Copy + Default>(
                     return;
                 }
                 medium = scene.medium_after(&it, ray.d, medium);
-                ray = spawn_ray(it.p, it.n, ray.d);
+                ray = cross_boundary_ray(it.p, it.n, ray.d);
                 continue;
             }
             let prev = verts[verts.len() - 1];

@@ -8,6 +8,7 @@
 use super::subpath::Vertex;
 use crate::integrator::MisHeuristic;
 use crate::transport::{Segment, Stretch};
+use std::cell::RefCell;
 
 /// Which wavelength reset the integrator applies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +51,16 @@ pub struct FullPath {
     /// `pa_fwd[i+1]`) and from x(i+1) (light direction, part of `pa_rev[i]`).
     pub dist_fwd: Vec<f64>,
     pub dist_rev: Vec<f64>,
+    /// Work arrays of the O(k) MIS sums, reused between connections.
+    products: RefCell<Products>,
+}
+
+/// Work arrays of `FullPath::strategy_pdfs`: prefix or suffix products, and p(ŝ) at index ŝ − 1.
+#[derive(Clone, Debug, Default)]
+struct Products {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    out: Vec<f64>,
 }
 
 impl FullPath {
@@ -72,6 +83,7 @@ impl FullPath {
             media: Vec::with_capacity(n),
             dist_fwd: vec![1.0; n],
             dist_rev: vec![1.0; n],
+            products: RefCell::default(),
         }
     }
 
@@ -185,16 +197,114 @@ impl FullPath {
         self.area_pdf(s_hat) * self.wavelength_pdf(s_hat, mode)
     }
 
-    /// MIS weights of all strategies ŝ = 1 … k (index ŝ − 1), eq. 6.15 generalised to the power
-    /// heuristic; they sum to 1 whenever any strategy has a non-zero pdf.
-    pub fn strategy_weights(&self, mode: ResetMode, h: MisHeuristic, out: &mut Vec<f64>) {
+    /// The full pdf p(ŝ) of every strategy ŝ = 1 … k (index ŝ − 1) in O(k) (eq. 6.14): each is
+    /// a camera prefix times a light suffix of area pdfs (eq. 6.3), and its wavelength pdf needs
+    /// only the first shifting vertex at or after ŝ (forward, eqs. 6.9/6.10) or the last one
+    /// before ŝ (backward, eqs. 6.11/6.13), tracked while walking ŝ down or up. Equal to
+    /// [`Self::strategy_pdf`] up to rounding (products taken in another order).
+    pub fn strategy_pdfs(&self, mode: ResetMode, out: &mut Vec<f64>) {
+        let mut pr = self.products.borrow_mut();
+        self.fill_products(mode, &mut pr);
         out.clear();
+        out.extend_from_slice(&pr.out);
+    }
+
+    /// p(ŝ) for every ŝ into `pr.out`, in two passes: forward stores the camera prefixes and
+    /// walks ŝ down with the light suffixes, backward stores the light suffixes and walks ŝ up
+    /// with the camera prefixes (the direction in which its stopping vertex is met first).
+    fn fill_products(&self, mode: ResetMode, pr: &mut Products) {
+        let k = self.k;
+        pr.out.clear();
+        if k < 2 {
+            return;
+        }
+        let last = k - 2; // last interior vertex
+        pr.out.resize(k, 0.0);
+        if pr.a.len() <= k {
+            pr.a.resize(k + 1, 0.0);
+            pr.b.resize(k + 1, 0.0);
+        }
+        let (a, b, out) = (&mut pr.a[..=k], &mut pr.b[..=k], &mut pr.out[..k]);
+        let (pa_fwd, pa_rev) = (&self.pa_fwd[..k], &self.pa_rev[..k]);
+        let (pc, pl, shift) = (&self.pc[..k], &self.pl[..k], &self.shift[..k]);
+        let (pc0, ple) = (self.pc0, self.ple);
+        match mode {
+            ResetMode::Forward => {
+                // a[i] = ∏_{m=1}^{i} pa_fwd[m], b[i] = ∏_{m=1}^{i} pc[m] (left to right, as `prod`)
+                (a[0], b[0]) = (1.0, 1.0);
+                for i in 1..=last {
+                    (a[i], b[i]) = (a[i - 1] * pa_fwd[i], b[i - 1] * pc[i]);
+                }
+                a[k - 1] = a[k - 2] * pa_fwd[k - 1];
+                // eqs. 6.9/6.10: j = first shifting vertex in [ŝ, k−2], the last one met walking
+                // ŝ down; rev = ∏_{m=ŝ}^{k−1} pa_rev[m], light = ∏_{m=ŝ+1}^{k−2} pl[m] at a shift
+                let (mut rev, mut light) = (1.0, 1.0);
+                let mut wl = pc0 * b[last];
+                for s_hat in (2..=k).rev() {
+                    if s_hat < k {
+                        rev *= pa_rev[s_hat];
+                    }
+                    if s_hat <= last {
+                        if shift[s_hat] {
+                            wl = pc0 * b[s_hat - 1] * self.big_pc[s_hat] * (light * ple);
+                        }
+                        light *= pl[s_hat];
+                    }
+                    out[s_hat - 1] = a[s_hat - 1] * rev * wl;
+                }
+                // ŝ = 1: light tracing, every wavelength from the light sub-path (Jung 6.3.2)
+                let light = if last >= 1 { pl[1] * light } else { light };
+                out[0] = (pa_rev[1] * rev) * (light * ple);
+            }
+            ResetMode::Backward => {
+                // a[i] = ∏_{m=i}^{k−1} pa_rev[m], b[j] = ∏_{m=j+1}^{k−2} pl[m] · ple
+                a[k] = 1.0;
+                for i in (1..k).rev() {
+                    a[i] = pa_rev[i] * a[i + 1];
+                }
+                let mut light = 1.0;
+                for j in (0..=last).rev() {
+                    b[j] = light * ple;
+                    light *= pl[j];
+                }
+                // ŝ = 1: light tracing (Jung 6.3.2)
+                out[0] = a[1] * b[0];
+                // eqs. 6.11/6.13: j = last shifting vertex in [1, min(ŝ−1, k−2)], the last one
+                // met walking ŝ up; fwd = ∏_{m=1}^{ŝ−1} pa_fwd[m], cam = ∏_{m=1}^{j−1} pc[m]
+                let (mut fwd, mut cam) = (1.0, 1.0);
+                let mut wl = b[0];
+                for s_hat in 2..=k {
+                    let i = s_hat - 1;
+                    fwd *= pa_fwd[i];
+                    if i <= last {
+                        if shift[i] {
+                            wl = pc0 * cam * self.big_pl[i] * b[i];
+                        }
+                        cam *= pc[i];
+                    }
+                    out[s_hat - 1] = fwd * a[s_hat] * wl;
+                }
+            }
+        }
+    }
+
+    /// Whether some strategy has a positive, finite pdf (eq. 6.14), i.e. the MIS weights of
+    /// the path can sum to 1. O(k).
+    pub fn any_strategy(&self, mode: ResetMode) -> bool {
+        let mut pr = self.products.borrow_mut();
+        self.fill_products(mode, &mut pr);
+        pr.out.iter().any(|&p| p > 0.0 && p.is_finite())
+    }
+
+    /// MIS weights of all strategies ŝ = 1 … k (index ŝ − 1), eq. 6.15 generalised to the power
+    /// heuristic; they sum to 1 whenever any strategy has a non-zero pdf. O(k).
+    pub fn strategy_weights(&self, mode: ResetMode, h: MisHeuristic, out: &mut Vec<f64>) {
         let e = h.exponent() as f64;
+        self.strategy_pdfs(mode, out);
         let mut sum = 0.0;
-        for s_hat in 1..=self.k {
-            let p = self.strategy_pdf(s_hat, mode).powf(e);
-            sum += p;
-            out.push(p);
+        for p in out.iter_mut() {
+            *p = p.powf(e);
+            sum += *p;
         }
         if sum > 0.0 {
             for w in out.iter_mut() {
@@ -203,16 +313,18 @@ impl FullPath {
         }
     }
 
-    /// MIS weight of strategy s given its own pdf `p_s`.
+    /// MIS weight of strategy s given its own pdf `p_s`, in O(k) (`strategy_pdfs`).
     pub fn mis_weight(&self, s: usize, p_s: f64, mode: ResetMode, h: MisHeuristic) -> f64 {
         let e = h.exponent() as f64;
+        let mut pr = self.products.borrow_mut();
+        self.fill_products(mode, &mut pr);
         let mut sum = 0.0;
-        for s_hat in 1..=self.k {
-            if s_hat == s {
+        for (i, &p) in pr.out.iter().enumerate() {
+            if i + 1 == s {
                 sum += 1.0;
                 continue;
             }
-            let r = self.strategy_pdf(s_hat, mode) / p_s;
+            let r = p / p_s;
             sum += if e == 1.0 { r } else { r * r };
         }
         1.0 / sum
@@ -252,6 +364,24 @@ mod tests {
         assert!((p.wavelength_pdf(2, ResetMode::Backward) - want).abs() < 1e-15);
         // ŝ = 1: all light-side pdfs.
         assert!((p.wavelength_pdf(1, ResetMode::Backward) - 0.05 * 0.7 * 0.02).abs() < 1e-15);
+    }
+
+    #[test]
+    fn all_strategies_at_once_match_each_alone() {
+        let mut p = path();
+        p.pa_fwd = vec![0.0, 2.0, 0.5, 3.0];
+        p.pa_rev = vec![0.7, 1.5, 4.0, 0.25];
+        let mut v = Vec::new();
+        for shift2 in [false, true] {
+            p.shift[2] = shift2;
+            for mode in [ResetMode::Forward, ResetMode::Backward] {
+                p.strategy_pdfs(mode, &mut v);
+                for (i, x) in v.iter().enumerate() {
+                    let want = p.strategy_pdf(i + 1, mode);
+                    assert!((x - want).abs() <= 1e-15 * want, "{mode:?} ŝ={}", i + 1);
+                }
+            }
+        }
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //! vertex. A scene without media runs the walk instantiated without medium code.
 
 use crate::geometry::Ray;
-use crate::geometry::ray::spawn_ray;
+use crate::geometry::ray::{cross_boundary_ray, spawn_ray};
 use crate::integrator::{IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::{Bbrrdf, Material, PathSide, ShiftSampling};
 use crate::medium::Tracking;
@@ -151,7 +151,7 @@ impl Walk {
                     break;
                 }
                 s.medium = scene.medium_after(&it, ray.d, s.medium);
-                ray = spawn_ray(it.p, it.n, ray.d);
+                ray = cross_boundary_ray(it.p, it.n, ray.d);
                 continue;
             }
             depth += 1;

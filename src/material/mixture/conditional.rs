@@ -127,6 +127,11 @@ impl ConditionalMixture {
             + (self.tables[0].len() + self.tables[1].len()) * 4
     }
 
+    /// The closed intervals of λi and of λo outside which the kernel is zero.
+    pub fn support(&self) -> ((f64, f64), (f64, f64)) {
+        (self.ex, self.em)
+    }
+
     /// Whether the kernel is zero everywhere.
     pub fn is_empty(&self) -> bool {
         self.comps.is_empty() || self.scale <= 0.0 || self.ex.0 >= self.ex.1

@@ -7,7 +7,9 @@
 //! ∬ρ = Σ D·Δλ over the mixture's mass on the measured support above the diagonal (eq. 5).
 
 use super::{Component, ConditionalMixture, FitOptions, conditional::MAX_COMPONENTS};
-use crate::material::reradiation::{BfcMatrix, lerp_on_grid};
+use crate::material::reradiation::{
+    BfcMatrix, MAX_BFC_ALBEDO, MAX_BFC_ENTRY, MIN_BFC_STEP, lerp_on_grid,
+};
 use crate::spectrum::Domain;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -70,6 +72,16 @@ pub struct Grid {
 /// Largest grid dimension accepted from a file.
 pub const MAX_GRID: usize = 1000;
 
+/// Largest wavelength of a model's grid and means, nm (as for a BFC header).
+const MAX_NM: f64 = 1e5;
+
+/// Largest `scale` S, nm. S = ∬ρ / (the mixture's mass on the support): the RIT fits reach
+/// about 1.8e3 nm (IXCAXORA); the albedo check below is the physical bound.
+pub const MAX_SCALE: f64 = 1e6;
+
+/// Largest variance of a component along any direction, nm² (a standard deviation of 1e5 nm).
+const MAX_VARIANCE: f64 = 1e10;
+
 impl Grid {
     pub fn of(m: &BfcMatrix) -> Grid {
         Grid {
@@ -93,17 +105,28 @@ impl Grid {
         (lo - h, lo + (self.n_em as f64 - 1.0) * self.step as f64 + h)
     }
     fn check(&self) -> Result<(), String> {
-        let ok = |x: f32| x.is_finite() && (0.0..=1e5).contains(&x);
+        let ok = |x: f32| x.is_finite() && (0.0..=MAX_NM as f32).contains(&x);
         if !ok(self.em_lo) || !ok(self.ex_lo) {
-            return Err("grid: em_lo and ex_lo must be wavelengths in [0, 1e5] nm".into());
+            return Err(format!(
+                "grid: em_lo and ex_lo must be wavelengths in [0, {MAX_NM:e}] nm"
+            ));
         }
-        if !(self.step.is_finite() && self.step > 0.0 && self.step <= 1e3) {
-            return Err(format!("grid.step: {} is not in (0, 1000] nm", self.step));
+        if !(self.step.is_finite() && self.step >= MIN_BFC_STEP && self.step <= 1e3) {
+            return Err(format!(
+                "grid.step: {} is not in [{MIN_BFC_STEP}, 1000] nm",
+                self.step
+            ));
         }
         for (n, name) in [(self.n_em, "n_em"), (self.n_ex, "n_ex")] {
             if n == 0 || n > MAX_GRID {
                 return Err(format!("grid.{name}: {n} is not in 1..={MAX_GRID}"));
             }
+        }
+        let hi = self.em_support().1.max(self.ex_support().1);
+        if hi > MAX_NM {
+            return Err(format!(
+                "grid.step: the grid reaches {hi} nm, beyond {MAX_NM:e} nm"
+            ));
         }
         Ok(())
     }
@@ -144,19 +167,33 @@ impl GmmFile {
         if let Some(i) = self
             .reflectance
             .iter()
-            .position(|r| !r.is_finite() || *r < 0.0)
+            .position(|r| !(r.is_finite() && (0.0..=MAX_BFC_ENTRY).contains(r)))
         {
+            let r = self.reflectance[i];
+            let r = if r.abs() < 1e6 {
+                r.to_string()
+            } else {
+                format!("{r:e}")
+            };
             return Err(format!(
-                "reflectance[{i}]: {} is not a finite non-negative number",
-                self.reflectance[i]
+                "reflectance[{i}]: {r} is not a number in [0, {MAX_BFC_ENTRY}] (a measured \
+                 reflectance is about 1 at most)"
             ));
         }
-        if !(self.scale.is_finite() && self.scale >= 0.0) {
+        if !(self.scale.is_finite() && (0.0..=MAX_SCALE).contains(&self.scale)) {
             return Err(format!(
-                "scale: {} is not finite and non-negative",
+                "scale: {} is not a number in [0, {MAX_SCALE:e}] nm",
                 self.scale
             ));
         }
+        self.check_components()?;
+        self.check_albedo()
+    }
+
+    /// At most [`MAX_COMPONENTS`], each valid, with a weight in [0, 1], a mean inside the
+    /// wavelength range and a covariance whose variances lie between the cell covariance
+    /// step²/12 that every fit adds and [`MAX_VARIANCE`]; the weights sum to 1.
+    fn check_components(&self) -> Result<(), String> {
         if self.components.len() > MAX_COMPONENTS {
             return Err(format!(
                 "components: {} components, at most {MAX_COMPONENTS} are supported",
@@ -170,9 +207,58 @@ impl GmmFile {
                 self.components[k]
             ));
         }
+        let floor = self.grid.step as f64 * self.grid.step as f64 / 12.0 * (1.0 - 1e-3);
+        for (k, c) in self.components.iter().enumerate() {
+            if c.weight > 1.0 {
+                return Err(format!(
+                    "components[{k}].weight: {} is not in [0, 1]",
+                    c.weight
+                ));
+            }
+            if let Some(m) = c.mean.iter().find(|m| !(0.0..=MAX_NM).contains(*m)) {
+                return Err(format!(
+                    "components[{k}].mean: {m} nm is not a wavelength in [0, {MAX_NM:e}] nm"
+                ));
+            }
+            // Eigenvalues of the symmetric 2×2 covariance.
+            let [[a, b], [_, d]] = c.cov;
+            let (mid, r) = (0.5 * (a + d), (0.25 * (a - d) * (a - d) + b * b).sqrt());
+            let (lo, hi) = (mid - r, mid + r);
+            if !(lo >= floor && hi <= MAX_VARIANCE) {
+                return Err(format!(
+                    "components[{k}].cov: variances from {lo} to {hi} nm², outside \
+                     [step²/12 = {floor:.4}, {MAX_VARIANCE:e}] (every fit adds the covariance of \
+                     a grid cell)"
+                ));
+            }
+        }
         let w: f64 = self.components.iter().map(|c| c.weight).sum();
         if !self.components.is_empty() && (w - 1.0).abs() > 1e-6 {
             return Err(format!("components: the weights sum to {w}, not 1"));
+        }
+        Ok(())
+    }
+
+    /// The model's albedo at each excitation wavelength, reflectance plus ∫ρ dλo (sampled at a
+    /// quarter of the grid step), is at most [`MAX_BFC_ALBEDO`], as for a BFC column.
+    fn check_albedo(&self) -> Result<(), String> {
+        let g = self.grid;
+        let (a, b) = g.ex_support();
+        let cond = ConditionalMixture::new(&self.components, self.scale, (a, b), g.em_support());
+        let r = &self.reflectance;
+        let n = 4 * g.n_ex;
+        for j in 0..=n {
+            let li = a + (b - a) * j as f64 / n as f64;
+            let refl = lerp_on_grid(g.em_lo, g.step, r.len(), |k| r[k], li as f32) as f64;
+            let fl = cond.total(li, 0);
+            if !(refl + fl <= MAX_BFC_ALBEDO as f64) {
+                return Err(format!(
+                    "scale: the model reflects and reradiates {:.4} (reflectance {refl:.4} + \
+                     reradiation {fl:.4}) of the light at excitation {li:.1} nm, above \
+                     {MAX_BFC_ALBEDO}: scale or components are out of range",
+                    refl + fl
+                ));
+            }
         }
         Ok(())
     }

@@ -9,6 +9,7 @@
 
 pub mod binops;
 pub mod evaluate;
+pub mod grid;
 pub mod media;
 pub mod mis;
 
@@ -84,6 +85,8 @@ pub struct BdptAllbins {
     strategy_images: bool,
     /// Media tables (empty without media).
     media: BinMedia,
+    /// Spectra that bins of the nominal width would average coarsely (printed by `new`).
+    pub warnings: Vec<String>,
 }
 
 /// The bin buffers of one sub-path.
@@ -145,6 +148,19 @@ pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
 
 impl BdptAllbins {
     pub fn new(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
+        // Edges at the spectra's jumps, refined where they change fast (grid.rs).
+        let (grid, warnings) = grid::scene_grid(scene, o.bin_width);
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        let mut ev = Self::with_grid(scene, o, grid)?;
+        ev.warnings = warnings;
+        Ok(ev)
+    }
+
+    /// The integrator on a given bin grid (`new` uses the scene's; tests compare with uniform
+    /// grids).
+    pub fn with_grid(scene: &Scene, o: &IntegratorOptions, grid: BinGrid) -> Result<Self, String> {
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "bdpt-allbins needs wavelength-independent directional sampling; the scene has {f}"
@@ -153,7 +169,6 @@ impl BdptAllbins {
         if scene.lights.is_empty() {
             return Err("bdpt-allbins: the scene has no lights".into());
         }
-        let grid = BinGrid::new(scene.domain, o.bin_width);
         let ops = scene
             .materials
             .iter()
@@ -180,6 +195,7 @@ impl BdptAllbins {
             only: None,
             strategy_images: o.strategy_images,
             media,
+            warnings: Vec::new(),
         })
     }
 }
