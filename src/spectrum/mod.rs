@@ -258,43 +258,22 @@ impl Spectrum {
     /// divided in f64: the f32 reciprocal of a `by` near the ends of the f32 range would lose
     /// precision or overflow. Check `by` with [`normalisable`] first.
     pub fn divided(&self, by: f64) -> Spectrum {
-        let d = |v: f32| (v as f64 / by) as f32;
-        match self {
-            Spectrum::Constant(v) => Spectrum::Constant(d(*v)),
-            Spectrum::Box { lo, hi, value } => Spectrum::Box {
-                lo: *lo,
-                hi: *hi,
-                value: d(*value),
-            },
-            Spectrum::Gaussian {
-                center,
-                sigma,
-                peak,
-            } => Spectrum::Gaussian {
-                center: *center,
-                sigma: *sigma,
-                peak: d(*peak),
-            },
-            Spectrum::Tabulated { xs, ys } => Spectrum::Tabulated {
-                xs: xs.clone(),
-                ys: ys.iter().map(|&y| d(y)).collect(),
-            },
-            Spectrum::Binned { lo, width, values } => Spectrum::Binned {
-                lo: *lo,
-                width: *width,
-                values: values.iter().map(|&y| d(y)).collect(),
-            },
-        }
+        self.map_values(|v| (v as f64 / by) as f32)
     }
 
     /// The same spectrum multiplied by `k`.
     pub fn scaled(&self, k: f32) -> Spectrum {
+        self.map_values(|v| v * k)
+    }
+
+    /// The same spectrum with every value (not the wavelengths) mapped by `f`.
+    fn map_values(&self, f: impl Fn(f32) -> f32) -> Spectrum {
         match self {
-            Spectrum::Constant(v) => Spectrum::Constant(v * k),
+            Spectrum::Constant(v) => Spectrum::Constant(f(*v)),
             Spectrum::Box { lo, hi, value } => Spectrum::Box {
                 lo: *lo,
                 hi: *hi,
-                value: value * k,
+                value: f(*value),
             },
             Spectrum::Gaussian {
                 center,
@@ -303,16 +282,16 @@ impl Spectrum {
             } => Spectrum::Gaussian {
                 center: *center,
                 sigma: *sigma,
-                peak: peak * k,
+                peak: f(*peak),
             },
             Spectrum::Tabulated { xs, ys } => Spectrum::Tabulated {
                 xs: xs.clone(),
-                ys: ys.iter().map(|y| y * k).collect(),
+                ys: ys.iter().map(|&y| f(y)).collect(),
             },
             Spectrum::Binned { lo, width, values } => Spectrum::Binned {
                 lo: *lo,
                 width: *width,
-                values: values.iter().map(|y| y * k).collect(),
+                values: values.iter().map(|&y| f(y)).collect(),
             },
         }
     }
