@@ -249,6 +249,12 @@ fn walls() -> String {
         .replace('\\', "/")
 }
 
+/// [`config`] with a reference of 1,000,000 spp, which takes minutes: a test that ends in
+/// seconds shows that nothing was rendered (or that a signal arrived mid-render).
+fn slow_config(extra: &str) -> String {
+    config(extra).replace(r#""spp": 16"#, r#""spp": 1000000"#)
+}
+
 fn config(extra: &str) -> String {
     format!(
         r#"{{ "name": "t", "scene": "{}",
@@ -346,7 +352,7 @@ fn bad_grid_cell_is_found_before_anything_renders() {
     // check came late.
     let grid = r#", "grid": {"material": "floor", "rows": {"field": "concentration", "values": [0.1, 1]},
                   "columns": {"field": "quantum_yield", "values": [0.5, 7]}}"#;
-    let json = config(grid).replace(r#""spp": 16"#, r#""spp": 1000000"#);
+    let json = slow_config(grid);
     let t = std::time::Instant::now();
     let (code, err, d) = experiment("grid-late", &json, false);
     expect_input_error(
@@ -364,11 +370,7 @@ fn bad_grid_cell_is_found_before_anything_renders() {
 fn unwritable_results_folder_is_found_before_anything_renders() {
     let d = common::temp_dir("hard-out-file");
     let cfg = d.join("config.json");
-    std::fs::write(
-        &cfg,
-        config("").replace(r#""spp": 16"#, r#""spp": 1000000"#),
-    )
-    .unwrap();
+    std::fs::write(&cfg, slow_config("")).unwrap();
     // `--out` is a file: no folder can be made in it.
     let out = d.join("results");
     std::fs::write(&out, "not a folder").unwrap();
@@ -741,11 +743,7 @@ fn interrupted_experiment_is_marked_incomplete() {
     let d = common::temp_dir("hard-sigterm");
     let cfg = d.join("config.json");
     // A long reference render (not cached) keeps the run busy until the signal.
-    std::fs::write(
-        &cfg,
-        config("").replace(r#""spp": 16"#, r#""spp": 1000000"#),
-    )
-    .unwrap();
+    std::fs::write(&cfg, slow_config("")).unwrap();
     let results = d.join("results");
     let mut child = Command::new(bin())
         .args(["experiment", s(&cfg), "--out", s(&results)])
