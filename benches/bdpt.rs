@@ -30,6 +30,7 @@ fn bench_depths(c: &mut Criterion) {
     let mut scene = Scene::load(Path::new("scenes/furnace-fluorescent.json")).unwrap();
     (scene.camera.width, scene.camera.height) = (4, 4);
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 1,
         seed: 0,
         threads: Some(1),
@@ -68,6 +69,7 @@ fn bench_scene(c: &mut Criterion, file: &str, group: &str) {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp: SPP,
         seed: 0,
         threads: Some(2),

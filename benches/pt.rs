@@ -32,6 +32,7 @@ fn bench_scene(c: &mut Criterion, file: &str, group: &str, max_depth: u32) {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp: SPP,
         seed: 0,
         threads: Some(2),

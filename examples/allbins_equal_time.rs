@@ -46,6 +46,7 @@ fn main() {
         IntegratorKind::BdptAllbins,
         &opts,
         &RenderSettings {
+            first_sample: 0,
             spp: ref_spp,
             seed: 12345,
             ..Default::default()
@@ -67,6 +68,7 @@ fn main() {
             kind,
             &opts,
             &RenderSettings {
+                first_sample: 0,
                 spp: 1 << 20,
                 seed: 1,
                 threads: Some(1),

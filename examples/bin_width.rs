@@ -41,6 +41,7 @@ fn main() {
     let fov = 2.0 * c.tan_half_x.atan().to_degrees();
     scene.camera = Camera::look_at(c.origin, c.origin + c.forward, c.up, fov, true, res, res);
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 1,
         ..Default::default()
@@ -50,6 +51,7 @@ fn main() {
         IntegratorKind::PtMono,
         &IntegratorOptions::default(),
         &RenderSettings {
+            first_sample: 0,
             spp: ref_spp,
             seed: 999,
             ..Default::default()

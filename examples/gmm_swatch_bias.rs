@@ -95,6 +95,7 @@ fn render_xyz(scene: &Scene, spp: u32, seed: u64, what: &str) -> Vec<Vec3> {
         IntegratorKind::PtHero,
         &IntegratorOptions::default(),
         &RenderSettings {
+            first_sample: 0,
             spp,
             seed,
             ..Default::default()

@@ -47,6 +47,7 @@ fn main() {
     let per: Vec<f64> = (0..seeds as u64)
         .map(|s| {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp,
                 seed: 5000 + s,
                 ..Default::default()

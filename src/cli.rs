@@ -22,6 +22,11 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
+    /// Render only samples FROM..TO (TO excluded) of the seed's sample sequence, instead of
+    /// --spp. The EXR then carries the film's exact sums, so such shards merge with
+    /// `stokes merge` into the image of the whole range.
+    #[arg(long, value_name = "FROM..TO", value_parser = parse_samples, conflicts_with_all = ["spp", "time_limit"])]
+    pub samples: Option<(u32, u32)>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads (default: all cores).
@@ -78,7 +83,16 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    crate::film::shard::parse_range(s)
+}
+
 impl RenderArgs {
+    /// The samples to render: `--samples`, or `0..--spp`.
+    pub fn sample_range(&self) -> (u32, u32) {
+        self.samples.unwrap_or((0, self.spp))
+    }
+
     pub fn options(&self) -> IntegratorOptions {
         IntegratorOptions {
             max_depth: self.max_depth,
@@ -115,6 +129,14 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), Error> {
         return Err(Error::input(format!(
             "--spp must be 1–{MAX_SPP}, got {}",
             a.spp
+        )));
+    }
+    if let Some((from, to)) = a.samples
+        && to - from > MAX_SPP
+    {
+        return Err(Error::input(format!(
+            "--samples {from}..{to} holds {} samples, at most {MAX_SPP} in one render",
+            to - from
         )));
     }
     if let Some(t) = a.time_limit
@@ -225,8 +247,10 @@ fn canonical_output(p: &Path) -> PathBuf {
 pub fn render(a: &RenderArgs) -> Result<(), Error> {
     render_cmd_validate(a)?;
     let scene = load_scene(&a.scene, a.quiet)?;
+    let (from, to) = a.sample_range();
     let settings = RenderSettings {
-        spp: a.spp,
+        first_sample: from,
+        spp: to - from,
         seed: a.seed,
         threads: a.threads,
         time_limit: a.time_limit,
@@ -237,7 +261,16 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         .map_err(Error::input)?;
     let (w, h) = (out.film.width, out.film.height);
     let rgb = out.film.rgb();
-    write_exr(&a.output, w, h, &rgb).map_err(Error::runtime)?;
+    let info = shard_info(
+        &a.scene,
+        a.integrator,
+        &opts,
+        a.seed,
+        from,
+        from + out.film.spp,
+    )?;
+    crate::film::shard::write_film(&a.output, &out.film, &info, a.samples.is_some())
+        .map_err(Error::runtime)?;
     if let Some(p) = &a.png {
         write_png(p, w, h, &rgb, a.exposure).map_err(Error::runtime)?;
     }
@@ -262,6 +295,101 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         out.seconds,
         out.stats.paths as f64 / out.seconds.max(1e-9) / 1e6,
         out.stats.nan_inf_rejected
+    );
+    Ok(())
+}
+
+/// What a film of `scene` rendered by `kind` with `opts` and `seed` holds, samples `from..to`:
+/// the attributes its EXR carries.
+pub fn shard_info(
+    scene: &Path,
+    kind: IntegratorKind,
+    opts: &IntegratorOptions,
+    seed: u64,
+    from: u32,
+    to: u32,
+) -> Result<crate::film::shard::ShardInfo, Error> {
+    let text = std::fs::read_to_string(scene)
+        .map_err(|e| Error::input(format!("cannot read scene '{}': {e}", scene.display())))?;
+    Ok(crate::film::shard::ShardInfo {
+        scene: scene.display().to_string(),
+        scene_hash: crate::film::shard::scene_hash(&text),
+        integrator: kind.name().into(),
+        // Strategy images only add layers: they do not make another render.
+        options: serde_json::to_string(&IntegratorOptions {
+            strategy_images: false,
+            ..opts.clone()
+        })
+        .unwrap(),
+        seed,
+        from,
+        to,
+    })
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// Shard EXRs written by `stokes render --samples FROM..TO` (or by an experiment's jobs).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// The merged EXR: a shard of the union of the ranges.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write an sRGB PNG preview.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
+
+/// `stokes merge`: add the exact sums of shards of one render (same scene, seed, integrator,
+/// options and size; ranges neither overlapping nor leaving gaps) into one EXR.
+pub fn merge(a: &MergeArgs) -> Result<(), Error> {
+    use crate::film::output::{has_extension, probe_writable};
+    if !has_extension(&a.output, "exr") {
+        return Err(Error::input(format!(
+            "-o/--output '{}': the merged image is written as OpenEXR, so its name must end in .exr",
+            a.output.display()
+        )));
+    }
+    if let Some(p) = &a.png
+        && !has_extension(p, "png")
+    {
+        return Err(Error::input(format!(
+            "--png '{}': the name of the PNG preview must end in .png",
+            p.display()
+        )));
+    }
+    let out = canonical_output(&a.output);
+    for s in &a.shards {
+        if canonical_output(s) == out {
+            return Err(Error::input(format!(
+                "-o/--output '{}' is also an input shard: it would be replaced; give the merge its own path",
+                a.output.display()
+            )));
+        }
+    }
+    probe_writable(&a.output)
+        .map_err(|e| Error::input(format!("-o/--output '{}': {e}", a.output.display())))?;
+    let shards = a
+        .shards
+        .iter()
+        .map(|p| crate::film::shard::read_shard(p).map_err(Error::input))
+        .collect::<Result<Vec<_>, _>>()?;
+    let n = shards.len();
+    let merged = crate::film::shard::merge(shards).map_err(Error::input)?;
+    merged.write(&a.output).map_err(Error::runtime)?;
+    if let Some(p) = &a.png {
+        let f = merged.film();
+        write_png(p, f.width, f.height, &f.rgb(), 0.0).map_err(Error::runtime)?;
+    }
+    eprintln!(
+        "merged {n} shards: samples {}..{} ({} spp) of {} with {}, seed {} -> {}",
+        merged.info.from,
+        merged.info.to,
+        merged.info.to - merged.info.from,
+        merged.info.scene,
+        merged.info.integrator,
+        merged.info.seed,
+        a.output.display()
     );
     Ok(())
 }
@@ -373,18 +501,183 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
 #[derive(Args, Debug, Clone)]
 pub struct ExperimentArgs {
     /// Experiment config JSON.
-    pub config: PathBuf,
-    /// Results root (default `results`, `results/quick` with --quick); the run goes to `<out>/<name>/runs/<timestamp>/`.
+    #[arg(required_unless_present = "collect")]
+    pub config: Option<PathBuf>,
+    /// Results root (default `results`, `results/quick` with --quick); the run goes to
+    /// `<out>/<name>/runs/<timestamp>/`. With --plan or --slurm: the run folder itself, new or
+    /// empty (default: a new `<root>/<name>/runs/<timestamp>/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Small resolution, few spp, one repeat: a smoke test.
     #[arg(long)]
     pub quick: bool,
+    /// Do not render: write the run folder and its job list (`jobs.jsonl`), one independent
+    /// render per line, for `stokes job` (docs/cluster.md).
+    #[arg(long, conflicts_with = "slurm")]
+    pub plan: bool,
+    /// With --plan or --slurm: split the rendered reference's samples into this many shard
+    /// jobs (default 8).
+    #[arg(long, value_name = "K")]
+    pub reference_shards: Option<u32>,
+    /// Finish a planned run whose jobs have all run: merge, metrics, figures.
+    #[arg(long, value_name = "RUN_DIR", conflicts_with_all = ["config", "plan", "slurm", "quick", "out", "reference_shards", "partition", "time", "cpus_per_task", "dry_run"])]
+    pub collect: Option<PathBuf>,
+    /// Plan the run and submit it to Slurm: an array of its jobs, then a collect job that
+    /// depends on the array (afterok).
+    #[arg(long)]
+    pub slurm: bool,
+    /// Slurm partition (default: the cluster's default).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Slurm time limit per job, e.g. 30, 1:00:00 or 1-00:00:00.
+    #[arg(long)]
+    pub time: Option<String>,
+    /// CPUs per job (its worker threads); default: the config's `threads`, else 1.
+    #[arg(long)]
+    pub cpus_per_task: Option<u32>,
+    /// Write and print the Slurm scripts without submitting them.
+    #[arg(long)]
+    pub dry_run: bool,
 }
 
 pub fn experiment(a: &ExperimentArgs) -> Result<(), Error> {
-    crate::experiment::run_experiment(&a.config, a.out.as_deref(), a.quick)?;
+    use crate::experiment::cluster;
+    if let Some(dir) = &a.collect {
+        cluster::collect(dir)?;
+        return Ok(());
+    }
+    let config = a.config.as_deref().expect("clap requires CONFIG");
+    check_cluster_options(a)?;
+    if !(a.plan || a.slurm) {
+        crate::experiment::run_experiment(config, a.out.as_deref(), a.quick)?;
+        return Ok(());
+    }
+    let opts = crate::experiment::cluster::slurm::SlurmOptions {
+        partition: a.partition.clone(),
+        time: a.time.clone(),
+        cpus_per_task: a.cpus_per_task,
+        dry_run: a.dry_run,
+    };
+    if a.slurm {
+        crate::experiment::cluster::slurm::validate(&opts)?;
+    }
+    let (run_dir, plan, jobs) = cluster::write_plan(
+        config,
+        a.out.as_deref(),
+        a.quick,
+        a.reference_shards.unwrap_or(8),
+    )?;
+    let shards = jobs
+        .iter()
+        .filter(|j| matches!(j.work, cluster::plan::Work::ReferenceShard { .. }))
+        .count();
+    eprintln!(
+        "planned {} jobs into {}: {shards} reference shards of {} spp, {} renders",
+        jobs.len(),
+        run_dir.display(),
+        plan.shard_spp,
+        jobs.len() - shards
+    );
+    if !a.slurm {
+        eprintln!(
+            "run each job with `stokes job {d} INDEX` (INDEX 0–{}; `--all` runs them one after the other), then `stokes experiment --collect {d}`",
+            jobs.len() - 1,
+            d = run_dir.display()
+        );
+        println!("{}", run_dir.display());
+        return Ok(());
+    }
+    slurm_submit(&run_dir, &plan, jobs.len(), opts)
+}
+
+/// The options of planned and Slurm runs are refused where they would be ignored.
+fn check_cluster_options(a: &ExperimentArgs) -> Result<(), Error> {
+    let slurm_only = [
+        ("--partition", a.partition.is_some()),
+        ("--time", a.time.is_some()),
+        ("--cpus-per-task", a.cpus_per_task.is_some()),
+        ("--dry-run", a.dry_run),
+    ];
+    if !a.slurm
+        && let Some((opt, _)) = slurm_only.iter().find(|(_, given)| *given)
+    {
+        return Err(Error::input(format!(
+            "{opt} is an option of --slurm submissions; it does nothing {}",
+            if a.plan {
+                "with --plan (edit the run's scripts, or use --slurm)"
+            } else {
+                "without --slurm"
+            }
+        )));
+    }
+    if a.reference_shards.is_some() && !(a.plan || a.slurm) {
+        return Err(Error::input(
+            "--reference-shards splits the reference of a planned run: use it with --plan or --slurm",
+        ));
+    }
     Ok(())
+}
+
+/// Write the Slurm scripts of a planned run and submit them (or print them with `--dry-run`).
+fn slurm_submit(
+    run_dir: &Path,
+    plan: &crate::experiment::cluster::plan::Plan,
+    jobs: usize,
+    mut opts: crate::experiment::cluster::slurm::SlurmOptions,
+) -> Result<(), Error> {
+    use crate::experiment::cluster::slurm;
+    if opts.cpus_per_task.is_none() {
+        let cfg = crate::experiment::Config::load(&plan.config_file)?;
+        opts.cpus_per_task = Some(cfg.threads.unwrap_or(1).min(1024) as u32);
+    }
+    let exe = std::env::current_exe()
+        .map_err(|e| Error::runtime(format!("cannot find the stokes binary: {e}")))?;
+    let scripts = slurm::write_scripts(run_dir, jobs, &plan.name, &exe, &opts)?;
+    // After the scripts are written: an oversized run is then submitted in parts with them.
+    let fits = slurm::check_array_size(jobs, slurm::max_array_size());
+    if opts.dry_run {
+        if let Err(e) = fits {
+            eprintln!("warning: {}", e.message);
+        }
+        for p in [&scripts.array, &scripts.collect] {
+            let text = std::fs::read_to_string(p).unwrap_or_default();
+            println!("# {}\n{text}", p.display());
+        }
+        eprintln!(
+            "dry run: nothing submitted; submit with `bash {}`",
+            scripts.submit.display()
+        );
+        return Ok(());
+    }
+    fits?;
+    let (array, collect) = slurm::submit(&scripts)?;
+    eprintln!(
+        "submitted array job {array} ({jobs} tasks) and collect job {collect} (afterok:{array}); results: {}",
+        run_dir.display()
+    );
+    println!("{array} {collect}");
+    Ok(())
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct JobArgs {
+    /// Run folder planned with `stokes experiment CONFIG --plan` (or `--slurm`).
+    pub run_dir: PathBuf,
+    /// Job index (line of jobs.jsonl, from 0); default: SLURM_ARRAY_TASK_ID.
+    #[arg(conflicts_with = "all")]
+    pub index: Option<usize>,
+    /// Run every job that has not finished, one after the other.
+    #[arg(long)]
+    pub all: bool,
+}
+
+/// `stokes job`: run one job of a planned run (skipped when it already finished), or all.
+pub fn job(a: &JobArgs) -> Result<(), Error> {
+    use crate::experiment::cluster;
+    if a.all {
+        return cluster::run_all(&a.run_dir);
+    }
+    cluster::run_job(&a.run_dir, cluster::job_index(a.index)?)
 }
 
 pub fn figures(dir: &Path) -> Result<(), Error> {

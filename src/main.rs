@@ -20,8 +20,13 @@ struct Cli {
 enum Command {
     /// Render a scene to OpenEXR (and optionally PNG and a stats JSON).
     Render(Box<cli::RenderArgs>),
+    /// Merge sample-range shards of one render (`render --samples`) into one EXR, exactly.
+    Merge(cli::MergeArgs),
     /// Run an experiment config: variants against a reference, metrics and figures.
     Experiment(cli::ExperimentArgs),
+    /// Run one job of a planned experiment (`experiment --plan`/`--slurm`); in a Slurm array
+    /// job the index comes from SLURM_ARRAY_TASK_ID.
+    Job(cli::JobArgs),
     /// Regenerate every figure of a stored run (a run folder, or an experiment folder with `latest`).
     Figures {
         /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
@@ -74,6 +79,8 @@ fn main() -> ExitCode {
     let r = match args.command {
         Command::Render(a) => cli::render(&a),
         Command::Inspect { scene } => cli::inspect(&scene),
+        Command::Merge(a) => cli::merge(&a),
+        Command::Job(a) => cli::job(&a),
         Command::Experiment(a) => cli::experiment(&a),
         Command::Figures { results_dir } => cli::figures(&results_dir),
         Command::Gmm { command } => match command {

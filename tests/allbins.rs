@@ -36,6 +36,7 @@ fn furnace_mean(scene: &Scene, spp: u32) -> Vec3 {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 3,
         ..Default::default()
@@ -129,6 +130,7 @@ fn region_stats(
     let runs: Vec<Vec<Vec3>> = (0..seeds)
         .map(|seed| {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp,
                 seed: 100 + seed,
                 ..Default::default()
@@ -227,6 +229,7 @@ fn light_tracing_importance_matches_other_strategies() {
         let mut it = BdptAllbins::new(&scene, &opts).unwrap();
         it.only = Some(only);
         let settings = RenderSettings {
+            first_sample: 0,
             spp,
             seed: 7,
             ..Default::default()
@@ -305,6 +308,7 @@ fn power_heuristic_agrees_with_balance() {
             ..Default::default()
         };
         let settings = RenderSettings {
+            first_sample: 0,
             spp: 256,
             seed: 9,
             ..Default::default()
@@ -338,6 +342,7 @@ fn strategy_images_sum_to_the_image() {
     assert_eq!(names[0], "s1_t1");
     assert_eq!(names[2], "s1_t2");
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 8,
         seed: 4,
         ..Default::default()

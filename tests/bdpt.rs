@@ -42,6 +42,7 @@ fn furnace_check(scene: &Scene, want: Vec3, max_depth: u32, spp: u32) {
             ..Default::default()
         };
         let settings = RenderSettings {
+            first_sample: 0,
             spp,
             seed: 3,
             ..Default::default()
@@ -173,6 +174,7 @@ fn agree_with_pt_mono(name: &str, spp_bdpt: u32, spp_pt: u32) {
         let opts = &opts;
         move |seed: u64| {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp,
                 seed,
                 ..Default::default()
@@ -326,6 +328,7 @@ fn each_strategy_alone_converges_to_the_same_image() {
                                 .unwrap()
                                 .single_strategy(s, k - s);
                             let settings = RenderSettings {
+                                first_sample: 0,
                                 spp: 160,
                                 seed,
                                 ..Default::default()
@@ -397,6 +400,7 @@ fn stiff_fluorescent_walls_stay_finite() {
                 ..Default::default()
             };
             let settings = RenderSettings {
+                first_sample: 0,
                 spp: 16,
                 seed: 2,
                 ..Default::default()
@@ -428,6 +432,7 @@ fn strategy_images_sum_to_the_image() {
     assert_eq!(names[0], "s1_t1");
     assert_eq!(names[2], "s1_t2");
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 8,
         seed: 4,
         ..Default::default()
@@ -462,6 +467,7 @@ fn uniform_light_wavelengths_and_power_heuristic_agree() {
             let scene = &scene;
             move |seed: u64| {
                 let settings = RenderSettings {
+                    first_sample: 0,
                     spp: 32,
                     seed,
                     ..Default::default()

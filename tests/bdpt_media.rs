@@ -55,6 +55,7 @@ fn bdpts(scene: &Scene) -> Vec<IntegratorKind> {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 1,
         ..Default::default()
     };
@@ -500,6 +501,7 @@ fn each_strategy_alone_matches_the_mis_combined_light_of_its_length() {
                 let per_seed: Vec<[f64; 4]> = (0..SEEDS)
                     .map(|seed| {
                         let settings = RenderSettings {
+                            first_sample: 0,
                             spp,
                             seed: 1000 + seed,
                             ..Default::default()
@@ -523,6 +525,7 @@ fn each_strategy_alone_matches_the_mis_combined_light_of_its_length() {
                     let per_seed: Vec<[f64; 4]> = (0..2 * SEEDS)
                         .map(|seed| {
                             let settings = RenderSettings {
+                                first_sample: 0,
                                 spp,
                                 seed: 10_000 + 1000 * k as u64 + 100 * s as u64 + seed,
                                 ..Default::default()
@@ -553,6 +556,7 @@ fn strategy_images_sum_to_the_image_in_a_medium() {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 16,
         seed: 4,
         ..Default::default()

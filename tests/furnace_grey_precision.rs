@@ -47,6 +47,7 @@ fn mean_y(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions, spp: u3
     let per: Vec<f64> = (0..SEEDS)
         .map(|s| {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp,
                 seed: 9000 + s,
                 ..Default::default()

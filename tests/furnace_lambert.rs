@@ -16,6 +16,7 @@ fn pt_mono_converges_to_closed_form() {
     };
     // 32×32 pixels × 256 spp = 262k paths; wavelengths ∝ x̄+ȳ+z̄ keep the colour noise low.
     let settings = RenderSettings {
+        first_sample: 0,
         spp: 256,
         seed: 1,
         ..Default::default()

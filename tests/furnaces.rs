@@ -41,6 +41,7 @@ fn mean_xyz_lanes(
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 7,
         ..Default::default()

@@ -134,6 +134,7 @@ fn quadrants(
     let per_seed: Vec<[f64; 4]> = (0..seeds)
         .map(|k| {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp,
                 seed: first_seed + k,
                 ..Default::default()

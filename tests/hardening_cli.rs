@@ -10,17 +10,7 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_stokes")
-}
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use common::{bin, expect_input_error, repo, s};
 
 /// A small valid scene of `size`×`size` pixels.
 fn scene(dir: &Path, size: u32) -> PathBuf {
@@ -49,18 +39,6 @@ fn run(args: &[&str]) -> (i32, String) {
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stderr).to_string(),
     )
-}
-
-/// Exit code 2, no panic, and every one of `names` in the message.
-fn expect_input_error(what: &str, (code, err): (i32, String), names: &[&str]) {
-    assert_eq!(code, 2, "{what}: exit code {code}, stderr: {err}");
-    assert!(!err.contains("panicked"), "{what}: panic: {err}");
-    for n in names {
-        assert!(
-            err.contains(n),
-            "{what}: message does not name `{n}`: {err}"
-        );
-    }
 }
 
 /// `stokes render <scene> --spp 1 -o <dir>/out.exr` plus `extra`.

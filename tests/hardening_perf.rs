@@ -29,6 +29,7 @@ fn load_edited(tag: &str, name: &str, edit: impl FnOnce(&mut Value)) -> Scene {
 /// The XYZ pixels of a one-thread, fixed-seed render, checked to be finite.
 fn pixels(scene: &Scene, kind: IntegratorKind, spp: u32) -> Vec<glam::Vec3> {
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 3,
         threads: Some(1),

@@ -105,6 +105,7 @@ fn cli(tag: &str, text: &str, files: &[(&str, &[u8])]) -> (i32, String) {
 /// The mean luminance of a small render of `scene`, checked to be finite with nothing rejected.
 fn mean_y(scene: &Scene, kind: IntegratorKind, spp: u32) -> f64 {
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 1,
         threads: Some(1),

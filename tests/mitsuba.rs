@@ -21,6 +21,7 @@ fn render_means(name: &str, max_depth: u32, spp: u32) -> (f64, [f64; 4]) {
         ..Default::default()
     };
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: 5,
         ..Default::default()

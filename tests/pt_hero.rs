@@ -31,6 +31,7 @@ fn render_xyz(
     seed: u64,
 ) -> Vec<Vec3> {
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed,
         ..Default::default()
@@ -169,6 +170,7 @@ fn assert_stable(name: &str, v: &Value) {
         ];
         for (kind, opts) in variants {
             let settings = RenderSettings {
+                first_sample: 0,
                 spp: 8,
                 seed: 3,
                 ..Default::default()

@@ -38,6 +38,7 @@ fn quadrant_sums(scene: &Scene, kind: IntegratorKind) -> [Vec3; 4] {
         ..Default::default()
     };
     let st = RenderSettings {
+        first_sample: 0,
         spp: 4,
         seed: 5,
         threads: Some(2),

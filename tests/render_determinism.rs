@@ -19,6 +19,7 @@ fn same_seed_same_image_for_any_thread_count() {
     let opts = IntegratorOptions::default();
     let img = |threads, seed| {
         let st = RenderSettings {
+            first_sample: 0,
             spp: 4,
             seed,
             threads: Some(threads),
@@ -44,6 +45,7 @@ fn same_seed_same_image_for_any_thread_count() {
 fn time_limit_stops_early() {
     let scene = small("scenes/cornell-box.json");
     let st = RenderSettings {
+        first_sample: 0,
         spp: 1_000_000,
         seed: 1,
         time_limit: Some(0.3),

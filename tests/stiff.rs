@@ -192,6 +192,7 @@ fn options(depth: u32, bin_width: f32) -> IntegratorOptions {
 
 fn settings(spp: u32, seed: u64) -> RenderSettings {
     RenderSettings {
+        first_sample: 0,
         spp,
         seed,
         ..Default::default()

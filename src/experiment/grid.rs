@@ -66,7 +66,7 @@ pub fn check_cells(s: &Setup) -> Result<(), Error> {
 }
 
 /// Cell (`i`, `j`) with the row parameter at `rv` and the column parameter at `cv`.
-fn render_cell(
+pub(super) fn render_cell(
     s: &Setup,
     g: &Grid,
     (i, rv): (usize, f64),
@@ -84,6 +84,7 @@ fn render_cell(
     .map_err(|e| Error::input(format!("grid cell ({i}, {j}): {}", e.message)))?;
     s.resize(&mut scene);
     let settings = RenderSettings {
+        first_sample: 0,
         spp: match mb.mode {
             BudgetMode::Spp => last as u32,
             BudgetMode::Time => u32::MAX,

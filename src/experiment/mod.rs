@@ -5,6 +5,7 @@
 //! reference and snapshot EXRs and `figures/`. `stokes figures RUN_DIR` rebuilds the figures
 //! from those files without rendering.
 
+pub mod cluster;
 pub mod config;
 pub mod figures;
 pub mod metrics;

@@ -6,6 +6,7 @@ use super::config::{Reference, resolve};
 use super::setup::Setup;
 use crate::error::Error;
 use crate::film::output::{read_exr, write_exr};
+use crate::film::shard::ShardInfo;
 use crate::integrator::{RenderSettings, render};
 use glam::Vec3;
 use indicatif::ProgressBar;
@@ -59,10 +60,7 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
     let (w, h) = (s.width, s.height);
     let kind = r.integrator.unwrap();
     let spp = r.spp.unwrap();
-    let cache = s
-        .root
-        .join("references")
-        .join(format!("{:016x}.exr", cache_key(s, r)));
+    let cache = cache_file(s, r);
     // The cache is read back as untrusted: a damaged, resized or non-finite file is rendered anew.
     if let Ok((cw, ch, px)) = read_exr(&cache)
         && (cw, ch) == (w, h)
@@ -79,6 +77,7 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
     }
     bar.set_message(format!("reference ({}, {spp} spp)", kind.name()));
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed: r.seed,
         threads: s.cfg.threads,
@@ -95,6 +94,58 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
     let px = out.film.rgb();
     write_exr(&cache, w, h, &px).map_err(Error::runtime)?;
     Ok(px)
+}
+
+/// Where the rendered reference `r` of `s` is cached: `<root>/references/<key>.exr`.
+pub fn cache_file(s: &Setup, r: &Reference) -> std::path::PathBuf {
+    s.root
+        .join("references")
+        .join(format!("{:016x}.exr", cache_key(s, r)))
+}
+
+/// Whether the cache holds the reference of `s` (a rendered one), readable and of the run's size.
+pub fn cached(s: &Setup) -> bool {
+    let Some(r) = s.cfg.reference.as_ref().filter(|r| r.integrator.is_some()) else {
+        return false;
+    };
+    read_exr(&cache_file(s, r))
+        .is_ok_and(|(w, h, px)| (w, h) == (s.width, s.height) && px.iter().all(|c| c.is_finite()))
+}
+
+/// Samples `from..to` of the rendered reference of `s` (a cluster job's shard), with the
+/// attributes that let the shards merge.
+pub fn render_shard(
+    s: &Setup,
+    from: u32,
+    to: u32,
+) -> Result<(crate::film::Film, ShardInfo), Error> {
+    let r = s
+        .cfg
+        .reference
+        .as_ref()
+        .filter(|r| r.integrator.is_some())
+        .ok_or_else(|| Error::input("the experiment has no rendered reference to shard"))?;
+    let kind = r.integrator.unwrap();
+    let settings = RenderSettings {
+        first_sample: from,
+        spp: to - from,
+        seed: r.seed,
+        threads: s.cfg.threads,
+        time_limit: None,
+        progress: true,
+    };
+    let out = render(&s.scene, kind, &r.options, &settings, None)
+        .map_err(|e| Error::runtime(format!("reference: {e}")))?;
+    let info = ShardInfo {
+        scene: s.scene_path.display().to_string(),
+        scene_hash: crate::film::shard::scene_hash(&s.scene_text),
+        integrator: kind.name().into(),
+        options: serde_json::to_string(&r.options).unwrap(),
+        seed: r.seed,
+        from,
+        to,
+    };
+    Ok((out.film, info))
 }
 
 /// Cache key of a rendered reference: scene text, integrator, options, spp, seed, resolution.

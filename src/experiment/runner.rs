@@ -25,17 +25,7 @@ pub fn run_experiment(
     root: Option<&Path>,
     quick: bool,
 ) -> Result<PathBuf, Error> {
-    // Everything is checked before the first sample: the config, every scene (variants', the
-    // sweep's values, the grid's cells), the integrators, the size of the region masks, and
-    // that the results root takes files.
-    let setup = Setup::load(config_path, root, quick)?;
-    setup.check_integrators()?;
-    let points = sweep::points(&setup)?;
-    grid::check_cells(&setup)?;
-    regions::check(&setup)?;
-    for p in &points {
-        regions::check(&p.setup)?;
-    }
+    let (setup, points) = checked_setup(config_path, root, quick)?;
     setup.check_writable()?;
     let runs = points.len().max(1) as u64;
     let bar = progress::bar(progress::total(&setup.cfg, &setup.modes) * runs);
@@ -69,6 +59,25 @@ pub fn run_experiment(
     Ok(run_dir)
 }
 
+/// The experiment's setup and its sweep's values, with everything checked before the first
+/// sample: the config, every scene (variants', the sweep's values, the grid's cells), the
+/// integrators and the size of the region masks.
+pub(super) fn checked_setup(
+    config_path: &Path,
+    root: Option<&Path>,
+    quick: bool,
+) -> Result<(Setup, Vec<Point>), Error> {
+    let setup = Setup::load(config_path, root, quick)?;
+    setup.check_integrators()?;
+    let points = sweep::points(&setup)?;
+    grid::check_cells(&setup)?;
+    regions::check(&setup)?;
+    for p in &points {
+        regions::check(&p.setup)?;
+    }
+    Ok((setup, points))
+}
+
 /// One run into `run_dir`: reference, regions, variants at their budgets, parameter grid, then
 /// `metrics.csv`, `summary.json`, `run.json` and the figures. Returns the metrics rows.
 fn run_steps(
@@ -95,6 +104,7 @@ fn run_steps(
         reference: reference.as_deref(),
         regions: &regions,
         bar,
+        keep_all: false,
     }
     .render_all()?;
     let grid_cells = grid::render_cells(setup, run_dir, bar)?;
@@ -141,7 +151,7 @@ fn run_sweep(
 }
 
 /// The `run.json` record of a run.
-fn run_info(
+pub(super) fn run_info(
     s: &Setup,
     has_reference: bool,
     regions: &[Region],
@@ -166,7 +176,7 @@ fn run_info(
 }
 
 /// Write `metrics.csv`, `summary.json` and `run.json` into the run folder.
-fn write_results(run_dir: &Path, rows: &[Row], info: &RunInfo) -> Result<(), Error> {
+pub(super) fn write_results(run_dir: &Path, rows: &[Row], info: &RunInfo) -> Result<(), Error> {
     write_text(&run_dir.join("metrics.csv"), &metrics_csv(rows))?;
     write_text(
         &run_dir.join("summary.json"),
@@ -178,7 +188,7 @@ fn write_results(run_dir: &Path, rows: &[Row], info: &RunInfo) -> Result<(), Err
     )
 }
 
-fn print_summary(rows: &[Row]) {
+pub(super) fn print_summary(rows: &[Row]) {
     let sum = summarize(rows);
     let mut last: Vec<&SummaryEntry> = Vec::new();
     for e in &sum {

@@ -24,6 +24,20 @@ pub struct Runs<'a> {
     pub reference: Option<&'a [Vec3]>,
     pub regions: &'a [Region],
     pub bar: &'a ProgressBar,
+    /// Write every snapshot's EXR (a cluster job, whose metrics are computed at collect), not
+    /// only repeat 0's and each repeat's last.
+    pub keep_all: bool,
+}
+
+/// What a snapshot measured: the samples done and the render time at that budget.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SnapshotStat {
+    /// Index of the budget in its mode.
+    pub budget: usize,
+    pub spp: u32,
+    /// Render seconds (snapshot overhead excluded).
+    pub seconds: f64,
+    pub samples_per_second: f64,
 }
 
 impl Runs<'_> {
@@ -31,26 +45,27 @@ impl Runs<'_> {
     pub fn render_all(&self) -> Result<Vec<Row>, Error> {
         let mut rows = Vec::new();
         for mb in &self.setup.modes {
-            for (i, v) in self.setup.cfg.variants.iter().enumerate() {
+            for i in 0..self.setup.cfg.variants.len() {
                 for rep in 0..self.setup.cfg.repeats {
-                    self.render_one(mb, i, v, rep, &mut rows)?;
+                    self.render_one(mb, i, rep, &mut rows)?;
                 }
             }
         }
         Ok(rows)
     }
 
-    /// Variant `i` (`v`) at the budgets `mb`, repeat `rep` (seed `seed + rep`), in its own scene
-    /// when it has one.
-    fn render_one(
+    /// Variant `i` at the budgets `mb`, repeat `rep` (seed `seed + rep`), in its own scene
+    /// when it has one. Adds its metrics rows (with a reference) and returns what each
+    /// snapshot measured.
+    pub fn render_one(
         &self,
         mb: &ModeBudgets,
         i: usize,
-        v: &Variant,
         rep: u32,
         rows: &mut Vec<Row>,
-    ) -> Result<(), Error> {
+    ) -> Result<Vec<SnapshotStat>, Error> {
         let cfg = &self.setup.cfg;
+        let v = &cfg.variants[i];
         let seed = cfg.seed + rep as u64;
         self.bar.set_message(format!(
             "{} ({} budget, repeat {}/{})",
@@ -60,6 +75,7 @@ impl Runs<'_> {
             cfg.repeats
         ));
         let settings = RenderSettings {
+            first_sample: 0,
             spp: match mb.mode {
                 BudgetMode::Spp => *mb.budgets.last().unwrap() as u32,
                 BudgetMode::Time => u32::MAX,
@@ -80,6 +96,7 @@ impl Runs<'_> {
             failure: None,
             done_units: 0,
             rows,
+            stats: Vec::new(),
         };
         let mut cb = |film: &Film, stats: &Stats, secs: f64| snap.on_pass(film, stats, secs);
         render(
@@ -100,7 +117,7 @@ impl Runs<'_> {
             return Err(Error::runtime(e));
         }
         self.bar.inc(per_job(mb).saturating_sub(snap.done_units));
-        Ok(())
+        Ok(snap.stats)
     }
 }
 
@@ -120,6 +137,7 @@ struct Snapshots<'a, 'r> {
     /// Progress units reported so far.
     done_units: u64,
     rows: &'r mut Vec<Row>,
+    stats: Vec<SnapshotStat>,
 }
 
 impl Snapshots<'_, '_> {
@@ -166,40 +184,73 @@ impl Snapshots<'_, '_> {
     ) -> Result<(), String> {
         let (mb, v, rep, next) = (self.mb, self.variant, self.rep, self.next);
         let is_last = next + 1 == mb.budgets.len();
-        if rep == 0 || is_last {
+        let stat = SnapshotStat {
+            budget: next,
+            spp: film.spp,
+            seconds: eff,
+            samples_per_second: stats.paths as f64 / eff,
+        };
+        self.stats.push(stat);
+        if rep == 0 || is_last || self.runs.keep_all {
             let f = self
                 .runs
                 .run_dir
                 .join(image_file(&v.name, mb.mode, next, rep));
             write_exr(&f, film.width, film.height, img)?;
         }
-        let Some(r) = self.runs.reference else {
-            return Ok(());
-        };
-        let sps = stats.paths as f64 / eff;
-        let mut push = |region: &str, m: ErrorMetrics| {
-            self.rows.push(Row {
-                variant: v.name.clone(),
-                integrator: v.integrator.name().into(),
-                mode: mb.mode.name().into(),
-                budget: mb.budgets[next],
+        if let Some(r) = self.runs.reference {
+            let key = RowKey {
+                variant: v,
+                mode: mb,
                 repeat: rep,
                 seed: self.seed,
-                spp: film.spp,
-                seconds: eff,
-                samples_per_second: sps,
-                region: region.into(),
-                pixels: m.pixels,
-                mse: m.mse,
-                rel_mse: m.rel_mse,
-                snr_db: m.snr_db,
-                efficiency: metrics::efficiency(m.rel_mse, eff),
-            })
-        };
-        push("all", metrics::compare(img, r, None));
-        for g in self.runs.regions {
-            push(&g.name, metrics::compare(img, r, Some(&g.mask)));
+            };
+            metric_rows(&key, &stat, img, r, self.runs.regions, self.rows);
         }
         Ok(())
+    }
+}
+
+/// Which render a snapshot belongs to.
+pub struct RowKey<'a> {
+    pub variant: &'a Variant,
+    pub mode: &'a ModeBudgets,
+    pub repeat: u32,
+    pub seed: u64,
+}
+
+/// The metrics rows of one snapshot `img` against the reference `r`: the whole image, then each
+/// region, in that order.
+pub fn metric_rows(
+    key: &RowKey,
+    stat: &SnapshotStat,
+    img: &[Vec3],
+    r: &[Vec3],
+    regions: &[Region],
+    rows: &mut Vec<Row>,
+) {
+    let v = key.variant;
+    let mut push = |region: &str, m: ErrorMetrics| {
+        rows.push(Row {
+            variant: v.name.clone(),
+            integrator: v.integrator.name().into(),
+            mode: key.mode.mode.name().into(),
+            budget: key.mode.budgets[stat.budget],
+            repeat: key.repeat,
+            seed: key.seed,
+            spp: stat.spp,
+            seconds: stat.seconds,
+            samples_per_second: stat.samples_per_second,
+            region: region.into(),
+            pixels: m.pixels,
+            mse: m.mse,
+            rel_mse: m.rel_mse,
+            snr_db: m.snr_db,
+            efficiency: metrics::efficiency(m.rel_mse, stat.seconds),
+        })
+    };
+    push("all", metrics::compare(img, r, None));
+    for g in regions {
+        push(&g.name, metrics::compare(img, r, Some(&g.mask)));
     }
 }

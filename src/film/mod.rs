@@ -2,6 +2,7 @@
 //! auxiliary layers; OpenEXR and PNG output written atomically.
 
 pub mod output;
+pub mod shard;
 
 use glam::Vec3;
 

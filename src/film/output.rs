@@ -107,7 +107,7 @@ pub fn has_extension(path: &Path, ext: &str) -> bool {
 /// The block layout of the EXRs we write: RLE-compressed 64×64 tiles (the exr crate's default)
 /// written in increasing-y order. Blocks are still compressed in parallel, but the writer puts
 /// them in the file in that fixed order, so identical images give identical bytes.
-fn exr_encoding() -> exr::prelude::Encoding {
+pub(crate) fn exr_encoding() -> exr::prelude::Encoding {
     use exr::prelude::*;
     Encoding {
         compression: Compression::RLE,

@@ -10,6 +10,10 @@ use std::time::Instant;
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
+    /// Index of the first sample: samples `first_sample..first_sample + spp` are rendered, each
+    /// drawn from (seed, pixel, sample index), so ranges of one render can run apart and merge.
+    pub first_sample: u32,
+    /// Number of samples per pixel.
     pub spp: u32,
     pub seed: u64,
     /// Worker threads (all cores when `None`).
@@ -23,6 +27,7 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
+            first_sample: 0,
             spp: 16,
             seed: 0,
             threads: None,
@@ -143,7 +148,19 @@ pub fn run<I: Integrator>(
     } else {
         None
     };
-    for s in 0..settings.spp {
+    let end = settings
+        .first_sample
+        .checked_add(settings.spp)
+        .ok_or_else(|| {
+            format!(
+                "samples {}..{}+{} exceed the largest sample index {}",
+                settings.first_sample,
+                settings.first_sample,
+                settings.spp,
+                u32::MAX
+            )
+        })?;
+    for s in settings.first_sample..end {
         let rows: Vec<RowResult> = (0..h)
             .into_par_iter()
             .map_init(

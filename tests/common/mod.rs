@@ -41,6 +41,7 @@ pub fn mean_xyz(
     seed: u64,
 ) -> (Vec3, f32) {
     let settings = RenderSettings {
+        first_sample: 0,
         spp,
         seed,
         ..Default::default()
@@ -97,6 +98,7 @@ pub fn quadrants(
     let mut per_seed = Vec::new();
     for seed in 0..seeds {
         let settings = RenderSettings {
+            first_sample: 0,
             spp,
             seed: 100 + seed,
             ..Default::default()
@@ -207,4 +209,31 @@ pub fn temp_dir(tag: &str) -> PathBuf {
     ));
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// The `stokes` binary of this build.
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_stokes")
+}
+
+/// The repository root.
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A path as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Exit code 2, no panic, and every one of `names` in the message.
+pub fn expect_input_error(what: &str, (code, err): (i32, String), names: &[&str]) {
+    assert_eq!(code, 2, "{what}: exit code {code}, stderr: {err}");
+    assert!(!err.contains("panicked"), "{what}: panic: {err}");
+    for n in names {
+        assert!(
+            err.contains(n),
+            "{what}: message does not name `{n}`: {err}"
+        );
+    }
 }
