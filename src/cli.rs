@@ -261,14 +261,16 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         .map_err(Error::input)?;
     let (w, h) = (out.film.width, out.film.height);
     let rgb = out.film.rgb();
-    let info = shard_info(
+    let text = std::fs::read_to_string(&a.scene)
+        .map_err(|e| Error::input(format!("cannot read scene '{}': {e}", a.scene.display())))?;
+    let info = crate::integrator::shard_info(
         &a.scene,
+        &text,
         a.integrator,
         &opts,
         a.seed,
-        from,
-        from + out.film.spp,
-    )?;
+        (from, from + out.film.spp),
+    );
     crate::film::shard::write_film(&a.output, &out.film, &info, a.samples.is_some())
         .map_err(Error::runtime)?;
     if let Some(p) = &a.png {
@@ -297,34 +299,6 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         out.stats.nan_inf_rejected
     );
     Ok(())
-}
-
-/// What a film of `scene` rendered by `kind` with `opts` and `seed` holds, samples `from..to`:
-/// the attributes its EXR carries.
-pub fn shard_info(
-    scene: &Path,
-    kind: IntegratorKind,
-    opts: &IntegratorOptions,
-    seed: u64,
-    from: u32,
-    to: u32,
-) -> Result<crate::film::shard::ShardInfo, Error> {
-    let text = std::fs::read_to_string(scene)
-        .map_err(|e| Error::input(format!("cannot read scene '{}': {e}", scene.display())))?;
-    Ok(crate::film::shard::ShardInfo {
-        scene: scene.display().to_string(),
-        scene_hash: crate::film::shard::scene_hash(&text),
-        integrator: kind.name().into(),
-        // Strategy images only add layers: they do not make another render.
-        options: serde_json::to_string(&IntegratorOptions {
-            strategy_images: false,
-            ..opts.clone()
-        })
-        .unwrap(),
-        seed,
-        from,
-        to,
-    })
 }
 
 #[derive(Args, Debug, Clone)]

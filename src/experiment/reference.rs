@@ -136,15 +136,14 @@ pub fn render_shard(
     };
     let out = render(&s.scene, kind, &r.options, &settings, None)
         .map_err(|e| Error::runtime(format!("reference: {e}")))?;
-    let info = ShardInfo {
-        scene: s.scene_path.display().to_string(),
-        scene_hash: crate::film::shard::scene_hash(&s.scene_text),
-        integrator: kind.name().into(),
-        options: serde_json::to_string(&r.options).unwrap(),
-        seed: r.seed,
-        from,
-        to,
-    };
+    let info = crate::integrator::shard_info(
+        &s.scene_path,
+        &s.scene_text,
+        kind,
+        &r.options,
+        r.seed,
+        (from, to),
+    );
     Ok((out.film, info))
 }
 

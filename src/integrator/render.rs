@@ -98,6 +98,32 @@ pub fn render(
     })
 }
 
+/// What a film of the scene file `scene` (whose text is `scene_text`) rendered by `kind` with
+/// `opts` and `seed` holds, samples `from..to`: the attributes its EXR carries. Strategy images
+/// only add layers, so they are left out of the options a merge compares.
+pub fn shard_info(
+    scene: &std::path::Path,
+    scene_text: &str,
+    kind: IntegratorKind,
+    opts: &IntegratorOptions,
+    seed: u64,
+    (from, to): (u32, u32),
+) -> crate::film::shard::ShardInfo {
+    let opts = IntegratorOptions {
+        strategy_images: false,
+        ..opts.clone()
+    };
+    crate::film::shard::ShardInfo {
+        scene: scene.display().to_string(),
+        scene_hash: crate::film::shard::scene_hash(scene_text),
+        integrator: kind.name().into(),
+        options: serde_json::to_string(&opts).unwrap(),
+        seed,
+        from,
+        to,
+    }
+}
+
 /// Check, without rendering, that the integrator `kind` accepts `scene` with `opts`: validate the
 /// options and construct the integrator (its `new` makes the checks), then drop it.
 pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> Result<(), String> {
