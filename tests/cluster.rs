@@ -778,19 +778,20 @@ fn bad_plans_and_arguments_are_input_errors() {
             &["jobs.jsonl", "holds 8 jobs", "plan.json", "9"],
         ),
     ];
-    for (what, text, names) in &cases_plan {
-        std::fs::write(&pf, text).unwrap();
-        for args in [
-            &["job", s(&run_dir), "0"][..],
-            &["experiment", "--collect", s(&run_dir)],
-        ] {
-            expect_input_error(
-                &format!("plan.json {what}: {args:?}"),
-                &stokes(&d.cwd, args),
-                names,
-            );
+    // Each damaged file must be refused by `job` and by `--collect`, naming what is wrong.
+    let refused = |file: &Path, cases: &[(&str, String, &[&str])]| {
+        for (what, text, names) in cases {
+            std::fs::write(file, text).unwrap();
+            for args in [
+                &["job", s(&run_dir), "0"][..],
+                &["experiment", "--collect", s(&run_dir)],
+            ] {
+                let label = format!("{} {what}: {args:?}", file.display());
+                expect_input_error(&label, &stokes(&d.cwd, args), names);
+            }
         }
-    }
+    };
+    refused(&pf, &cases_plan);
     std::fs::write(&pf, &plan_text).unwrap();
 
     let mut wrong_index: Value = serde_json::from_str(lines[1]).unwrap();
@@ -831,19 +832,7 @@ fn bad_plans_and_arguments_are_input_errors() {
             &["jobs.jsonl", "holds 5 jobs", "plan.json", "8"],
         ),
     ];
-    for (what, text, names) in &cases_jobs {
-        std::fs::write(&jf, text).unwrap();
-        for args in [
-            &["job", s(&run_dir), "0"][..],
-            &["experiment", "--collect", s(&run_dir)],
-        ] {
-            expect_input_error(
-                &format!("jobs.jsonl {what}: {args:?}"),
-                &stokes(&d.cwd, args),
-                names,
-            );
-        }
-    }
+    refused(&jf, &cases_jobs);
     std::fs::write(&jf, &jobs_text).unwrap();
     std::fs::remove_file(&jf).unwrap();
     expect_input_error(
