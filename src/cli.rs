@@ -666,6 +666,19 @@ pub fn figures(dir: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+/// `stokes report`: write `report.html` into a stored run folder and print its path.
+pub fn report(dir: &Path) -> Result<(), Error> {
+    let w = crate::experiment::report::write(dir)?;
+    eprintln!(
+        "report: {} images, {} figures, {:.1} MB",
+        w.images,
+        w.figures,
+        w.bytes as f64 / 1e6
+    );
+    println!("{}", w.file.display());
+    Ok(())
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct GmmFitArgs {
     /// A BFC file, or a folder of them.

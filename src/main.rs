@@ -32,6 +32,12 @@ enum Command {
         /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
         results_dir: PathBuf,
     },
+    /// Write report.html into a stored run folder: one self-contained page with an HDR image
+    /// viewer (exposure, relative error, zoom), the metrics tables, the figures and the config.
+    Report {
+        /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
+        run_dir: PathBuf,
+    },
     /// Gaussian-mixture reradiation models (Hua 2022): fit measured matrices, evaluate the fits.
     Gmm {
         #[command(subcommand)]
@@ -83,6 +89,7 @@ fn main() -> ExitCode {
         Command::Job(a) => cli::job(&a),
         Command::Experiment(a) => cli::experiment(&a),
         Command::Figures { results_dir } => cli::figures(&results_dir),
+        Command::Report { run_dir } => cli::report(&run_dir),
         Command::Gmm { command } => match command {
             GmmCommand::Fit(a) => cli::gmm_fit(&a),
             GmmCommand::Dense(a) => cli::gmm_dense(&a),

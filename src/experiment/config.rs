@@ -45,6 +45,9 @@ pub struct Config {
     /// runs once per value.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sweep: Option<Sweep>,
+    /// A signed difference figure of two variants (Mojzík 2018 Fig. 11d/f).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub difference: Option<Difference>,
 }
 
 fn one() -> u32 {
@@ -181,6 +184,16 @@ impl Sweep {
     }
 }
 
+/// `figures/difference.png`: the luminance of variant `a` minus that of variant `b` (the
+/// reference when `b` is absent) at the final budget, repeat 0.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Difference {
+    pub a: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<String>,
+}
+
 /// Which budget kind a snapshot belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -261,7 +274,42 @@ impl Config {
         self.validate_variants(file)?;
         self.validate_reference(file)?;
         self.validate_budget(file)?;
-        self.validate_rest(file)
+        self.validate_rest(file)?;
+        self.validate_difference(file)
+    }
+
+    /// `difference.a` and `difference.b` name two different variants; not with `grid` (a grid
+    /// run has no variant images).
+    fn validate_difference(&self, file: &Path) -> Result<(), InputError> {
+        let Some(d) = &self.difference else {
+            return Ok(());
+        };
+        if self.grid.is_some() {
+            return Err(err(file, "difference", "cannot be combined with `grid`"));
+        }
+        let names: Vec<&str> = self.variants.iter().map(|v| v.name.as_str()).collect();
+        for (field, name) in [("difference.a", Some(&d.a)), ("difference.b", d.b.as_ref())] {
+            if let Some(n) = name
+                && !names.contains(&n.as_str())
+            {
+                return Err(err(
+                    file,
+                    field,
+                    format!(
+                        "{n:?} is not a variant name (variants: {})",
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        if d.b.as_ref() == Some(&d.a) {
+            return Err(err(
+                file,
+                "difference.b",
+                format!("must differ from `difference.a` ({:?})", d.a),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_variants(&self, file: &Path) -> Result<(), InputError> {

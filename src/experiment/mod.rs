@@ -2,14 +2,17 @@
 //!
 //! `stokes experiment CONFIG.json` renders every variant at every budget snapshot and writes
 //! `results/<name>/runs/<timestamp>/` with `metrics.csv`, `summary.json`, `run.json`, the
-//! reference and snapshot EXRs and `figures/`. `stokes figures RUN_DIR` rebuilds the figures
-//! from those files without rendering.
+//! reference and snapshot EXRs, `figures/` and `report.html` ([`report`]). `stokes figures
+//! RUN_DIR` rebuilds the figures from those files without rendering, `stokes report RUN_DIR` the
+//! report.
 
 pub mod cluster;
 pub mod config;
 pub mod figures;
+pub mod latex_table;
 pub mod metrics;
 pub mod record;
+pub mod report;
 pub mod runner;
 
 // The steps of a run, which `runner` takes in the order setup, reference, regions, variants,

@@ -55,6 +55,7 @@ pub fn run_experiment(
         &setup.root.join(&setup.cfg.name).join("latest"),
         &format!("runs/{run_name}\n"),
     )?;
+    super::report::write(&run_dir)?;
     eprintln!("results: {}", run_dir.display());
     Ok(run_dir)
 }

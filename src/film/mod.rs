@@ -3,6 +3,7 @@
 
 pub mod output;
 pub mod shard;
+pub mod text;
 
 use glam::Vec3;
 

@@ -6,28 +6,18 @@
 //! Quantiles interpolate linearly between order statistics (Hyndman & Fan type 7, the default of
 //! NumPy and R). Each figure is written as SVG and as PNG. The SVG's text is laid out with
 //! plotters' built-in estimate, as the project's other figures are; the PNG's text is drawn by
-//! [`TextBitmap`] with DejaVu Sans compiled into the binary (`data/fonts/`), so no system font is
-//! read. (Plotters' own `ab_glyph` feature would do this through a process-wide font table, but
-//! it makes every plotters text lookup, SVG included, fail until a font is registered, which
-//! breaks the experiment figures.)
+//! [`TextBitmap`] with DejaVu Sans compiled into the binary (`data/fonts/`, through
+//! [`crate::film::text`]), so no system font is read. (Plotters' own `ab_glyph` feature would do
+//! this through a process-wide font table, but it makes every plotters text lookup, SVG
+//! included, fail until a font is registered, which breaks the experiment figures.)
 
 use crate::film::output::write_atomic;
-use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
+use crate::film::text;
+use ab_glyph::FontRef;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters_backend::{BackendColor, BackendCoord, DrawingErrorKind, text_anchor};
 use std::path::Path;
-use std::sync::OnceLock;
-
-static DEJAVU_SANS: &[u8] = include_bytes!("../../data/fonts/DejaVuSans.ttf");
-
-/// The bundled DejaVu Sans.
-fn font() -> Result<&'static FontRef<'static>, String> {
-    static F: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
-    F.get_or_init(|| FontRef::try_from_slice(DEJAVU_SANS).ok())
-        .as_ref()
-        .ok_or_else(|| "the bundled font data/fonts/DejaVuSans.ttf is not valid".to_string())
-}
 
 /// A bitmap backend that draws text with the bundled font (plotters' bitmap backend, built
 /// without a font feature, draws none). Everything else goes to the inner backend.
@@ -41,25 +31,14 @@ impl<'a> TextBitmap<'a> {
     pub fn with_buffer(buf: &'a mut [u8], size: (u32, u32)) -> Result<Self, String> {
         Ok(TextBitmap {
             inner: BitMapBackend::with_buffer(buf, size),
-            font: font()?,
+            font: text::font()?,
         })
     }
 
     /// Layout of `text` at plotters' size `size` (the line height; as plotters' `ab_glyph`
     /// backend): width from the advances and kerning, height the ascent minus the descent.
     fn layout(&self, text: &str, size: f64) -> (f32, f32) {
-        let f = self.font.as_scaled(PxScale::from(size as f32));
-        let mut w = 0.0;
-        let mut prev = None;
-        for c in text.chars() {
-            let g = f.glyph_id(c);
-            if let Some(p) = prev {
-                w += f.kern(p, g);
-            }
-            w += f.h_advance(g);
-            prev = Some(g);
-        }
-        (w, f.ascent() - f.descent())
+        text::layout(self.font, text, size as f32)
     }
 }
 
@@ -153,29 +132,19 @@ impl DrawingBackend for TextBitmap<'_> {
             text_anchor::VPos::Center => -h / 2.0,
             text_anchor::VPos::Bottom => -h,
         };
-        let f = self.font.as_scaled(PxScale::from(style.size() as f32));
         let trans = style.transform();
-        let (mut caret, mut prev) = (0.0f32, None);
         let mut pixels = Vec::new();
-        for c in text.chars() {
-            let id = f.glyph_id(c);
-            if let Some(p) = prev {
-                caret += f.kern(p, id);
-            }
-            let glyph = id.with_scale_and_position(f.scale(), point(caret + dx, f.ascent() + dy));
-            if let Some(o) = self.font.outline_glyph(glyph) {
-                let b = o.px_bounds();
-                o.draw(|x, y, cov| {
-                    pixels.push((b.min.x as i32 + x as i32, b.min.y as i32 + y as i32, cov))
-                });
-            }
-            caret += f.h_advance(id);
-            prev = Some(id);
-        }
+        text::coverage(
+            self.font,
+            text,
+            style.size() as f32,
+            (dx, dy),
+            |x, y, cov| pixels.push((x, y, cov)),
+        );
         for (x, y, cov) in pixels {
             let (x, y) = trans.transform(x, y);
             let c = BackendColor {
-                alpha: colour.alpha * cov.clamp(0.0, 1.0) as f64,
+                alpha: colour.alpha * cov as f64,
                 rgb: colour.rgb,
             };
             self.inner.draw_pixel((pos.0 + x, pos.1 + y), c)?;

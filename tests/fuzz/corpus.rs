@@ -822,11 +822,21 @@ fn small_config(
         }
     };
     let f = to_tiny(doc.get_mut("scene").unwrap());
+    let mut kept = Vec::new();
     if let Some(Json::Arr(vs)) = doc.get_mut("variants") {
         vs.truncate(2);
         for v in vs.iter_mut() {
             if let Some(sc) = v.get_mut("scene") {
                 to_tiny(sc);
+            }
+            kept.extend(v.get("name").cloned());
+        }
+    }
+    // The signed difference names variants: point it at the ones kept.
+    if let Some(d) = doc.get_mut("difference") {
+        for (k, name) in ["a", "b"].into_iter().zip(kept) {
+            if d.get(k).is_some() {
+                d.set(k, name);
             }
         }
     }

@@ -78,6 +78,7 @@ pub fn collect(run_dir: &Path) -> Result<PathBuf, Error> {
             &format!("runs/{name}\n"),
         )?;
     }
+    super::super::report::write(&run_dir)?;
     eprintln!("results: {}", run_dir.display());
     Ok(run_dir)
 }
