@@ -91,11 +91,7 @@ fn run_config(tag: &str, json: &str) -> (i32, String, PathBuf) {
     let d = common::temp_dir(tag);
     let cfg = d.join("config.json");
     std::fs::write(&cfg, json).unwrap();
-    let out = Command::new(bin())
-        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-        .arg(d.join("results"))
-        .output()
-        .unwrap();
+    let out = common::quick_experiment(&cfg, &d.join("results"));
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stderr).to_string(),
@@ -526,11 +522,7 @@ fn variant_with_its_own_scene() {
     )
     .unwrap();
     let out = d.join("results");
-    let o = Command::new(bin())
-        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = common::quick_experiment(&cfg, &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     let run = check_run_outputs(&out, "vs", &["same", "dim"], &["all", "floor", "back"]);
@@ -572,11 +564,7 @@ fn variant_with_its_own_scene() {
         ),
     )
     .unwrap();
-    let o = Command::new(bin())
-        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = common::quick_experiment(&cfg, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(
         std::fs::read_dir(out.join("references")).unwrap().count(),
@@ -616,11 +604,7 @@ fn variant_scene_errors_name_the_config_and_the_field() {
             ),
         )
         .unwrap();
-        let o = Command::new(bin())
-            .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-            .arg(d.join("results"))
-            .output()
-            .unwrap();
+        let o = common::quick_experiment(&cfg, &d.join("results"));
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{tag}: {err}");
         for w in ["config.json", "variants[1].scene", want] {

@@ -146,11 +146,7 @@ fn quick_run_pngs_label_themselves() {
         ),
     )
     .unwrap();
-    let o = Command::new(bin())
-        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-        .arg(d.join("results"))
-        .output()
-        .unwrap();
+    let o = common::quick_experiment(&cfg, &d.join("results"));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let run = latest_run(&d.join("results"), "f");
     let fig = run.join("figures");
@@ -411,11 +407,7 @@ fn unknown_difference_variant_is_an_input_error_naming_the_field() {
     ] {
         let cfg = d.join("config.json");
         std::fs::write(&cfg, base(extra)).unwrap();
-        let o = Command::new(bin())
-            .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-            .arg(d.join("results"))
-            .output()
-            .unwrap();
+        let o = common::quick_experiment(&cfg, &d.join("results"));
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{extra}: {err}");
         assert!(

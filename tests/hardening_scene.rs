@@ -449,11 +449,7 @@ fn seventy_thousand_shapes_keep_their_region_ids() {
     });
     let cfg = dir.join("config.json");
     std::fs::write(&cfg, config.to_string()).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
-        .args(["experiment", cfg.to_str().unwrap(), "--quick", "--out"])
-        .arg(dir.join("out"))
-        .output()
-        .unwrap();
+    let out = common::quick_experiment(&cfg, &dir.join("out"));
     assert!(
         out.status.success(),
         "{}",

@@ -2,6 +2,9 @@
 //! the table of a stored run with two budget modes checked against its `summary.json`, no table
 //! without metrics, and the table through `pdflatex` (when installed).
 
+mod common;
+
+use common::temp_dir;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use stokes::ErrorKind;
@@ -9,19 +12,6 @@ use stokes::experiment::latex_table::{
     Block, TABLE_FILE, Table, escape, number, write_summary_table,
 };
 use stokes::experiment::record::SummaryEntry;
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "stokes-latex-pdf-{tag}-{}-{}",
-        std::process::id(),
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_nanos()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// The run folder named by `results/<experiment>/latest`.
 fn stored_run(experiment: &str) -> PathBuf {

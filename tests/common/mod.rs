@@ -216,6 +216,14 @@ pub fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_stokes")
 }
 
+/// `stokes experiment CFG --quick --out OUT`, its output.
+pub fn quick_experiment(cfg: &Path, out: &Path) -> std::process::Output {
+    std::process::Command::new(bin())
+        .args(["experiment", s(cfg), "--quick", "--out", s(out)])
+        .output()
+        .unwrap()
+}
+
 /// The repository root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

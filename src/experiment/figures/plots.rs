@@ -122,10 +122,7 @@ pub fn convergence(
     );
     let all: Vec<&(f64, f64, f64, f64)> = ls.iter().flat_map(|l| &l.pts).collect();
     if all.is_empty() {
-        root.titled(&format!("{title}: no data"), ("sans-serif", 18))
-            .map_err(de)?;
-        root.present().map_err(de)?;
-        return Ok(());
+        return no_data(&root, &title);
     }
     let budgets = budget_axis(info, rows, time_plot);
     let xs = all.iter().map(|p| p.0).chain(budgets.iter().copied());
@@ -432,15 +429,19 @@ fn short(s: &str) -> String {
     }
 }
 
+/// A plot without points: its title says so.
+fn no_data(root: &DrawingArea<SVGBackend, plotters::coord::Shift>, title: &str) -> R<()> {
+    root.titled(&format!("{title}: no data"), ("sans-serif", 18))
+        .map_err(de)?;
+    root.present().map_err(de)
+}
+
 fn sweep_plot(ls: &[Line], labels: &[String], xlabel: &str, title: &str, path: &Path) -> R<()> {
     let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(de)?;
     let all: Vec<&(f64, f64, f64, f64)> = ls.iter().flat_map(|l| &l.pts).collect();
     if all.is_empty() {
-        root.titled(&format!("{title}: no data"), ("sans-serif", 18))
-            .map_err(de)?;
-        root.present().map_err(de)?;
-        return Ok(());
+        return no_data(&root, title);
     }
     let y0 = all.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
     let y1 = all.iter().map(|p| p.3).fold(f64::NEG_INFINITY, f64::max);
@@ -544,7 +545,9 @@ mod tests {
             .iter()
             .map(|v| tick(*v))
             .collect();
-        let want = ["5e-4", "2.5e-5", "1e-4", "0.002", "0.0125", "2.5", "40", "15000"];
+        let want = [
+            "5e-4", "2.5e-5", "1e-4", "0.002", "0.0125", "2.5", "40", "15000",
+        ];
         assert_eq!(labels, want);
     }
 
