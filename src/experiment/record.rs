@@ -5,7 +5,8 @@
 use super::config::{BudgetMode, Config, Crop, Scanline};
 use super::metrics::{self, Spread};
 use crate::error::Error;
-use crate::film::output::write_atomic;
+use crate::film::output::{read_exr, write_atomic};
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -507,6 +508,52 @@ pub fn new_run_dir(root: &Path, name: &str) -> Result<(PathBuf, String), Error> 
         }
     }
     Err(Error::runtime("too many runs in the same second"))
+}
+
+/// Read the EXR `file` of the run folder `dir` (for the figures and the report): it must exist,
+/// be an OpenEXR image of the run's size, and a `reference` must be finite everywhere. Errors
+/// name the file and say what is wrong.
+pub fn read_run_image(
+    dir: &Path,
+    file: &str,
+    info: &RunInfo,
+    reference: bool,
+) -> Result<Vec<Vec3>, Error> {
+    let p = dir.join(file);
+    let what = if reference {
+        "the run's reference, `reference_file` of run.json"
+    } else {
+        "an image run.json lists"
+    };
+    if !p.is_file() {
+        return Err(Error::input(format!(
+            "'{}' is missing: {what}, but the file is not there",
+            p.display()
+        )));
+    }
+    let (w, h, px) = read_exr(&p).map_err(|e| {
+        Error::input(format!(
+            "{e} ({what}): the file is damaged or not an OpenEXR image; run the experiment again"
+        ))
+    })?;
+    if (w, h) != (info.width, info.height) {
+        return Err(Error::input(format!(
+            "'{}' is {w}×{h} pixels, but run.json (`width`, `height`) says {}×{}",
+            p.display(),
+            info.width,
+            info.height
+        )));
+    }
+    if reference && let Some(i) = px.iter().position(|c| !c.is_finite()) {
+        return Err(Error::input(format!(
+            "reference image '{}': pixel ({}, {}) is not finite ({}): metrics against it would be NaN",
+            p.display(),
+            i % w as usize,
+            i / w as usize,
+            px[i]
+        )));
+    }
+    Ok(px)
 }
 
 #[cfg(test)]

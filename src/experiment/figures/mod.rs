@@ -13,10 +13,10 @@ mod sheet;
 pub use plots::sweep_summary;
 
 use super::config::BudgetMode;
-use super::record::{Row, RunInfo, image_file, read_metrics, safe_relative};
+use super::record::{Row, RunInfo, image_file, read_metrics, read_run_image, safe_relative};
 use super::sweep::SweepRecord;
 use crate::error::Error;
-use crate::film::output::{read_exr, write_atomic};
+use crate::film::output::write_atomic;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -90,36 +90,6 @@ pub fn make_all(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     // into LaTeX.
     out.extend(super::latex_table::write_summary_table(&dir)?);
     Ok(out)
-}
-
-/// Read the EXR `file` of the run folder `dir`: it must exist and be `info`'s size; a reference
-/// must be finite everywhere. Errors name the file.
-fn load_image(dir: &Path, file: &str, info: &RunInfo, reference: bool) -> Result<Vec<Vec3>, Error> {
-    let p = dir.join(file);
-    let what = if reference {
-        "the run's reference, `reference_file` of run.json"
-    } else {
-        "an image run.json lists"
-    };
-    let (w, h, px) = read_exr(&p).map_err(|e| Error::input(format!("{e} ({what})")))?;
-    if (w, h) != (info.width, info.height) {
-        return Err(Error::input(format!(
-            "'{}' is {w}×{h}, but run.json (`width`, `height`) says {}×{}",
-            p.display(),
-            info.width,
-            info.height
-        )));
-    }
-    if reference && let Some(i) = px.iter().position(|c| !c.is_finite()) {
-        return Err(Error::input(format!(
-            "reference image '{}': pixel ({}, {}) is not finite ({}): metrics against it would be NaN",
-            p.display(),
-            i % w as usize,
-            i / w as usize,
-            px[i]
-        )));
-    }
-    Ok(px)
 }
 
 /// An input error when a composite figure of `w`×`h` pixels would be too large.
@@ -243,14 +213,14 @@ fn image_figures(
     }
     let idx = mb.budgets.len() - 1;
     let reference = match &info.reference_file {
-        Some(f) => Some(load_image(dir, f, info, true)?),
+        Some(f) => Some(read_run_image(dir, f, info, true)?),
         None => None,
     };
     let mut imgs = Vec::new();
     for v in &info.config.variants {
         let f = image_file(&v.name, mb.mode, idx, 0);
         if dir.join(&f).is_file() {
-            imgs.push((v.name.clone(), load_image(dir, &f, info, false)?));
+            imgs.push((v.name.clone(), read_run_image(dir, &f, info, false)?));
         }
     }
     if imgs.is_empty() {
@@ -292,7 +262,7 @@ fn parameter_grid(dir: &Path, info: &RunInfo, fig: &Path) -> Result<Vec<PathBuf>
     check_size("parameter grid", nc * (w + 4), nr * (h + 4))?;
     let mut cells = Vec::new();
     for c in &info.grid_cells {
-        cells.push((c.row, c.column, load_image(dir, &c.file, info, false)?));
+        cells.push((c.row, c.column, read_run_image(dir, &c.file, info, false)?));
     }
     images::parameter_grid(info, g, &cells, fig)
 }

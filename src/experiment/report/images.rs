@@ -6,36 +6,9 @@ use super::encode::{base64, pixels_f16_deflate};
 use crate::error::Error;
 use crate::experiment::config::BudgetMode;
 use crate::experiment::metrics::REL_EPS;
-use crate::experiment::record::{Row, RunInfo, image_file};
-use crate::film::output::read_exr;
-use glam::Vec3;
+use crate::experiment::record::{Row, RunInfo, image_file, read_run_image};
 use serde_json::{Value, json};
 use std::path::Path;
-
-/// Read one image of the run and check its size against run.json.
-fn read_image(dir: &Path, file: &str, info: &RunInfo) -> Result<Vec<Vec3>, Error> {
-    let p = dir.join(file);
-    if !p.is_file() {
-        return Err(Error::input(format!(
-            "'{}' is missing: the run lists it in run.json but the file is not there",
-            p.display()
-        )));
-    }
-    let (w, h, px) = read_exr(&p).map_err(|e| {
-        Error::input(format!(
-            "{e}: the file is damaged or not an OpenEXR image; run the experiment again"
-        ))
-    })?;
-    if (w, h) != (info.width, info.height) {
-        return Err(Error::input(format!(
-            "'{}' is {w}×{h} pixels, but run.json says the run is {}×{}",
-            p.display(),
-            info.width,
-            info.height
-        )));
-    }
-    Ok(px)
-}
 
 /// A budget's label: `0.5 s` or `64 spp`.
 pub fn budget_label(mode: BudgetMode, b: f64) -> String {
@@ -87,7 +60,9 @@ pub fn viewer_data(dir: &Path, info: &RunInfo, rows: &[Row]) -> Result<(Value, u
     let mut count = 0;
     let mut encode = |file: &str| -> Result<String, Error> {
         count += 1;
-        Ok(base64(&pixels_f16_deflate(&read_image(dir, file, info)?)))
+        Ok(base64(&pixels_f16_deflate(&read_run_image(
+            dir, file, info, false,
+        )?)))
     };
     let reference = match &info.reference_file {
         Some(f) => {
