@@ -63,6 +63,23 @@ fn main() {
         best = best.min(t);
         times.push(t);
     }
+    let (nodes, packets, lanes, bytes) = accel.layout();
+    eprintln!(
+        "{nodes} nodes, {packets} packets ({:.0} % of lanes used), {:.1} bytes per primitive",
+        100.0 * lanes as f64 / (8 * packets).max(1) as f64,
+        bytes as f64 / set.tris.len() as f64
+    );
+    #[cfg(feature = "bvh-stats")]
+    {
+        let [v, p, l] = stokes::geometry::bvh::stats::totals();
+        let nr = (n * reps) as f64;
+        eprintln!(
+            "per ray: {:.2} nodes, {:.2} packets, {:.2} lanes",
+            v as f64 / nr,
+            p as f64 / nr,
+            l as f64 / nr
+        );
+    }
     times.sort_by(|a, b| a.partial_cmp(b).unwrap());
     println!(
         "{} n={n} occ={occ}: best {:.3} Mrays/s, median {:.3} Mrays/s (1 thread) chk {chk:.3}",

@@ -1,9 +1,12 @@
 //! Acceleration structure: one compressed wide BVH8 (`obvhs` CWBVH) over triangles and analytic
 //! spheres.
 //!
-//! Layout: the BVH's leaves address a contiguous primitive-slot range; for each slot we store a
-//! precomputed 64-byte record (`Prim`, triangle in the `RtTriangle` layout or a sphere) and the
-//! original primitive id, so traversal never needs the `primitive_indices` indirection.
+//! Layout: the leaf primitives of one CWBVH node (at most 24, one contiguous range) are stored
+//! together as 8-lane SoA packets ([`TriBlock`], the idea of Embree's `Triangle4v`/`Triangle8v`),
+//! each node's first lane on a packet boundary; the node's `primitive_base_idx` is rewritten to that
+//! lane. A node's hit leaf children become one lane mask, and each packet with a lane in it costs
+//! one branch-free 8-wide Möller–Trumbore, instead of one scalar test per primitive. A lane's
+//! original primitive id is in its packet, so traversal never needs `primitive_indices`.
 //!
 //! Notes on `obvhs` 0.4 (see the report in the commit message):
 //! - `CwBvhNode::intersect_ray` clamps the ray's `tmin` to a hard-coded `1e-4`, so hits closer than
@@ -314,13 +317,6 @@ fn inner_child(node: &CwBvhNode, meta: u8) -> u32 {
     node.child_base_idx + (node.imask as u32 & ((1u32 << slot) - 1)).count_ones()
 }
 
-/// Primitive slot range of the leaf child with metadata `meta` of `node`.
-#[inline(always)]
-fn leaf_range(node: &CwBvhNode, meta: u8) -> std::ops::Range<usize> {
-    let start = (node.primitive_base_idx + (meta & 0b1_1111) as u32) as usize;
-    start..start + (meta >> 5).count_ones() as usize
-}
-
 /// Traversal stack entry: node index and the ray's entry distance into its box.
 #[derive(Clone, Copy, Default)]
 struct Entry {
@@ -334,26 +330,66 @@ const STACK: usize = 192;
 /// Largest triangle-only scene traced with the flat AVX2 loop instead of the BVH.
 const FLAT_MAX: usize = 64;
 
-/// 8 triangles in SoA form (same quantities as [`Prim::triangle`]); padding lanes are masked off.
+/// 8 triangles in SoA form (same quantities as [`Prim::triangle`]). A sphere lane holds its
+/// centre in `a` and (r, r²) in `b.x`, `b.y` ([`Prim::sphere`]); unused lanes are all zero, which
+/// no ray hits (t = 0 · ∞ = NaN).
 #[derive(Clone, Copy, Default)]
 #[repr(C, align(32))]
-struct FlatBlock {
-    /// v0, v0 - v1, v2 - v0, (v0 - v1) x (v2 - v0); per axis, per lane.
+struct TriBlock {
+    /// v0, v0 - v1, v2 - v0; per axis, per lane. The normal (v0 - v1) x (v2 - v0) is computed
+    /// in the test, with the operations of `Vec3A::cross`, so it is the same to the bit.
     a: [[f32; 8]; 3],
     b: [[f32; 8]; 3],
     c: [[f32; 8]; 3],
-    d: [[f32; 8]; 3],
-    /// Lane mask of real triangles.
-    mask: u32,
+    /// Original primitive id per lane (`u32::MAX` if unused); in the packet's last cache line,
+    /// which the test has loaded.
+    ids: [u32; 8],
+}
+
+impl TriBlock {
+    fn set(&mut self, l: usize, p: &Prim) {
+        for k in 0..3 {
+            self.a[k][l] = p.a[k];
+            self.b[k][l] = p.b[k];
+            self.c[k][l] = p.c[k];
+        }
+    }
+
+    /// The sphere in lane `l`.
+    #[inline(always)]
+    fn sphere(&self, l: usize) -> Prim {
+        Prim {
+            a: Vec3A::new(self.a[0][l], self.a[1][l], self.a[2][l]),
+            b: Vec3A::new(self.b[0][l], self.b[1][l], 0.0),
+            c: Vec3A::ZERO,
+            d: Vec3A::ZERO,
+        }
+    }
+}
+
+/// A packet of the flat loop of tiny scenes, with its normals stored: there the data stay in
+/// the L1 cache and the arithmetic decides.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct FlatBlock {
+    tri: TriBlock,
+    n: [[f32; 8]; 3],
+}
+
+/// Lanes (node-relative, bits 0..24) of the leaf child with metadata `meta`.
+#[inline(always)]
+fn leaf_lanes(meta: u8) -> u32 {
+    ((1u32 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111)
 }
 
 /// The scene's acceleration structure (triangles and spheres in one CWBVH).
 pub struct Accel {
     bvh: CwBvh,
-    /// Per BVH primitive slot: precomputed intersection record.
-    prims: Vec<Prim>,
-    /// Per BVH primitive slot: original primitive id (triangles first, then spheres).
-    ids: Vec<u32>,
+    /// The nodes' leaf primitives, 8 lanes a packet; node `n`'s lanes start at
+    /// `n.primitive_base_idx` (a multiple of 8).
+    blocks: Vec<TriBlock>,
+    /// Per packet: the lanes that hold spheres (empty when the scene has none).
+    sphere_lanes: Vec<u8>,
     n_tris: u32,
     n_spheres: u32,
     /// Upper bound on the traversal stack depth (7 entries per level).
@@ -384,8 +420,8 @@ impl Accel {
         if n == 0 {
             return Accel {
                 bvh: CwBvh::default(),
-                prims: Vec::new(),
-                ids: Vec::new(),
+                blocks: Vec::new(),
+                sphere_lanes: Vec::new(),
                 n_tris: 0,
                 n_spheres: 0,
                 stack_size: 0,
@@ -463,29 +499,43 @@ impl Accel {
             *id = piece_to_prim[*id as usize];
         }
         drop(piece_to_prim);
-        let prims = ids
-            .iter()
-            .map(|&id| {
-                let id = id as usize;
-                if id < n_tris {
-                    Prim::triangle(&triangles[id])
-                } else {
-                    Prim::sphere(&spheres[id - n_tris])
-                }
-            })
-            .collect();
+        let prim = |id: u32| {
+            let id = id as usize;
+            if id < n_tris {
+                Prim::triangle(&triangles[id])
+            } else {
+                Prim::sphere(&spheres[id - n_tris])
+            }
+        };
+        let (blocks, sphere_lanes) =
+            pack_leaves(&mut bvh, &ids, n_tris as u32, !spheres.is_empty(), prim);
 
         let stack_size = 7 * cwbvh_depth(&bvh) + 1;
         Accel {
             bvh,
-            prims,
-            ids,
+            blocks,
+            sphere_lanes,
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
             stack_size,
             avx2: has_avx2(),
             flat: Self::flat_blocks(triangles, spheres),
         }
+    }
+
+    /// Sizes for profiling: (nodes, packets, lanes in use, bytes of nodes + packets + ids).
+    #[doc(hidden)]
+    pub fn layout(&self) -> (usize, usize, usize, usize) {
+        let used = self
+            .blocks
+            .iter()
+            .flat_map(|b| b.ids)
+            .filter(|&i| i != u32::MAX)
+            .count();
+        let bytes = std::mem::size_of_val(&self.bvh.nodes[..])
+            + std::mem::size_of_val(&self.blocks[..])
+            + self.sphere_lanes.len();
+        (self.bvh.nodes.len(), self.blocks.len(), used, bytes)
     }
 
     pub fn num_primitives(&self) -> usize {
@@ -538,17 +588,12 @@ impl Accel {
         triangles
             .chunks(8)
             .map(|chunk| {
-                let mut blk = FlatBlock {
-                    mask: (1u32 << chunk.len()) - 1,
-                    ..Default::default()
-                };
+                let mut blk = FlatBlock::default();
                 for (l, t) in chunk.iter().enumerate() {
                     let p = Prim::triangle(t);
+                    blk.tri.set(l, &p);
                     for k in 0..3 {
-                        blk.a[k][l] = p.a[k];
-                        blk.b[k][l] = p.b[k];
-                        blk.c[k][l] = p.c[k];
-                        blk.d[k][l] = p.d[k];
+                        blk.n[k][l] = p.d[k];
                     }
                 }
                 blk
@@ -563,7 +608,8 @@ impl Accel {
     #[target_feature(enable = "avx2")]
     #[inline]
     fn flat_block(
-        blk: &FlatBlock,
+        blk: &TriBlock,
+        normal: Option<&[[f32; 8]; 3]>,
         o: [f32; 3],
         d: [f32; 3],
         t_max: f32,
@@ -586,21 +632,35 @@ impl Accel {
             let rx = sub(mul(dy, cz), mul(cy, dz));
             let ry = sub(mul(dz, cx), mul(cz, dx));
             let rz = sub(mul(dx, cy), mul(cx, dy));
+            let dotv = |ax, ay, az, bx, by, bz| add(add(mul(ax, bx), mul(ay, by)), mul(az, bz));
             let dot = |ax, ay, az, bx: &[f32; 8], by: &[f32; 8], bz: &[f32; 8]| {
-                add(add(mul(ax, ld(bx)), mul(ay, ld(by))), mul(az, ld(bz)))
+                dotv(ax, ay, az, ld(bx), ld(by), ld(bz))
             };
-            let det = dot(dx, dy, dz, &blk.d[0], &blk.d[1], &blk.d[2]);
+            // n = b x c, stored or computed as `Vec3A::cross` computes it.
+            let (nx, ny, nz) = match normal {
+                Some(n) => (ld(&n[0]), ld(&n[1]), ld(&n[2])),
+                None => {
+                    let (bx, by, bz) = (ld(&blk.b[0]), ld(&blk.b[1]), ld(&blk.b[2]));
+                    let (ex, ey, ez) = (ld(&blk.c[0]), ld(&blk.c[1]), ld(&blk.c[2]));
+                    (
+                        sub(mul(by, ez), mul(ey, bz)),
+                        sub(mul(bz, ex), mul(ez, bx)),
+                        sub(mul(bx, ey), mul(ex, by)),
+                    )
+                }
+            };
+            let det = dotv(dx, dy, dz, nx, ny, nz);
             let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
             let u = mul(dot(rx, ry, rz, &blk.c[0], &blk.c[1], &blk.c[2]), inv_det);
             let v = mul(dot(rx, ry, rz, &blk.b[0], &blk.b[1], &blk.b[2]), inv_det);
             let w = sub(sub(_mm256_set1_ps(1.0), u), v);
             let neg = _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(u, v), w)) as u32;
-            let t = mul(dot(cx, cy, cz, &blk.d[0], &blk.d[1], &blk.d[2]), inv_det);
+            let t = mul(dotv(cx, cy, cz, nx, ny, nz), inv_det);
             let ok = _mm256_and_ps(
                 _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_setzero_ps()),
                 _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
             );
-            let hits = _mm256_movemask_ps(ok) as u32 & !neg & blk.mask;
+            let hits = _mm256_movemask_ps(ok) as u32 & !neg;
             if hits != 0
                 && let Some(out) = out
             {
@@ -620,7 +680,8 @@ impl Accel {
         let mut t_best = t_max;
         let mut tuv = [[0.0f32; 8]; 3];
         for (k, blk) in self.flat.iter().enumerate() {
-            let mut hits = Self::flat_block(blk, o, d, t_best, Some(&mut tuv));
+            // Unused lanes are zero and never hit.
+            let mut hits = Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_best, Some(&mut tuv));
             while hits != 0 {
                 let l = hits.trailing_zeros() as usize;
                 hits &= hits - 1;
@@ -645,24 +706,57 @@ impl Accel {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());
         self.flat
             .iter()
-            .any(|blk| Self::flat_block(blk, o, d, t_max, None) != 0)
+            .any(|blk| Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_max, None) != 0)
     }
 
-    /// Intersect primitive slot `slot`; returns (t, u, v) (t failing `0 < t < t_max` on a miss).
+    /// Test the lanes `lanes` (bits 0..8) of packet `b` against `r`: the mask of lanes hit in
+    /// (0, t_max), their t, u, v in `tuv`. Spheres (in mixed scenes) are tested one by one.
     #[inline(always)]
-    fn intersect_slot<const MIXED: bool>(
+    fn test_block<const MIXED: bool, const AVX: bool>(
         &self,
-        slot: usize,
+        b: usize,
+        lanes: u32,
         r: &TRay,
         t_max: f32,
-    ) -> (f32, f32, f32) {
-        // SAFETY: the CWBVH only addresses slots 0..primitive_indices.len() == prims.len().
-        let p = unsafe { self.prims.get_unchecked(slot) };
-        if MIXED && unsafe { *self.ids.get_unchecked(slot) } >= self.n_tris {
-            (p.intersect_sphere(r, t_max), 0.0, 0.0)
+        tuv: &mut [[f32; 8]; 3],
+    ) -> u32 {
+        // SAFETY: node lane bases and leaf offsets address packets the build wrote.
+        let blk = unsafe { self.blocks.get_unchecked(b) };
+        let spheres = if MIXED {
+            unsafe { *self.sphere_lanes.get_unchecked(b) as u32 }
         } else {
-            p.intersect_triangle(r)
+            0
+        };
+        let mut hits = 0;
+        if lanes & !spheres != 0 {
+            #[cfg(target_arch = "x86_64")]
+            if AVX {
+                // SAFETY: AVX is only true on the AVX2 path (`has_avx2`).
+                hits = unsafe {
+                    Self::flat_block(blk, None, r.o.to_array(), r.d.to_array(), t_max, Some(tuv))
+                };
+            } else {
+                hits = block_portable(blk, r, t_max, tuv);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                hits = block_portable(blk, r, t_max, tuv);
+            }
+            hits &= lanes & !spheres;
         }
+        let mut s = lanes & spheres;
+        while s != 0 {
+            let l = s.trailing_zeros() as usize;
+            s &= s - 1;
+            let t = blk.sphere(l).intersect_sphere(r, t_max);
+            if t > 0.0 && t < t_max {
+                hits |= 1 << l;
+                tuv[0][l] = t;
+                tuv[1][l] = 0.0;
+                tuv[2][l] = 0.0;
+            }
+        }
+        hits
     }
 
     /// Closest-hit traversal: leaf children are tested as soon as their node is, internal
@@ -678,18 +772,32 @@ impl Accel {
         let r = TRay::new(ray);
         let nodes = &self.bvh.nodes[..];
         let mut t_best = t_max;
-        let mut slot_best = u32::MAX;
+        let mut lane_best = u32::MAX;
         let (mut u_best, mut v_best) = (0.0, 0.0);
         let mut sp = 0usize;
         let mut cur = 0u32;
         let mut tmins = [0.0f32; 8];
+        let mut tuv = [[0.0f32; 8]; 3];
         loop {
             // SAFETY: child indices produced by the CWBVH builder are in bounds.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
+            #[cfg(feature = "bvh-stats")]
+            stats::count(0, 1);
+            // The node's first packet is needed whenever a leaf child is hit: fetch it while the
+            // boxes are tested.
+            if node.imask != 0xff {
+                prefetch(
+                    self.blocks
+                        .as_ptr()
+                        .wrapping_add(node.primitive_base_idx as usize / 8),
+                    5,
+                );
+            }
             let mut hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
             // Leaves first (they can shrink t_best before the inner children are ordered).
             let mut inner = [Entry::default(); 8];
             let mut n_inner = 0;
+            let mut leaves = 0u32;
             while hits != 0 {
                 let i = hits.trailing_zeros() as usize;
                 hits &= hits - 1;
@@ -701,14 +809,32 @@ impl Accel {
                     };
                     n_inner += 1;
                 } else if tmins[i] <= t_best {
-                    for slot in leaf_range(node, meta) {
-                        let (t, u, v) = self.intersect_slot::<MIXED>(slot, &r, t_best);
-                        if t > 0.0 && t < t_best {
-                            t_best = t;
-                            slot_best = slot as u32;
-                            u_best = u;
-                            v_best = v;
-                        }
+                    leaves |= leaf_lanes(meta);
+                }
+            }
+            // The next nodes' boxes load while the leaves are tested.
+            for e in &inner[..n_inner] {
+                prefetch(nodes.as_ptr().wrapping_add(e.node as usize), 2);
+            }
+            // All hit leaf children at once: one packet test per 8 lanes; the nearest hit wins,
+            // the lowest lane on ties.
+            let base = node.primitive_base_idx as usize;
+            while leaves != 0 {
+                let k = leaves.trailing_zeros() as usize / 8;
+                let lanes = (leaves >> (8 * k)) & 0xff;
+                leaves &= !(0xff << (8 * k));
+                let b = base / 8 + k;
+                #[cfg(feature = "bvh-stats")]
+                stats::count(1, lanes.count_ones() as u64);
+                let mut h = self.test_block::<MIXED, AVX>(b, lanes, &r, t_best, &mut tuv);
+                while h != 0 {
+                    let l = h.trailing_zeros() as usize;
+                    h &= h - 1;
+                    if tuv[0][l] < t_best {
+                        t_best = tuv[0][l];
+                        lane_best = (b * 8 + l) as u32;
+                        u_best = tuv[1][l];
+                        v_best = tuv[2][l];
                     }
                 }
             }
@@ -736,9 +862,9 @@ impl Accel {
             // Pop the nearest pending entry still in range.
             loop {
                 if sp == 0 {
-                    return (slot_best != u32::MAX).then(|| Hit {
+                    return (lane_best != u32::MAX).then(|| Hit {
                         t: t_best,
-                        prim: self.ids[slot_best as usize],
+                        prim: self.blocks[lane_best as usize / 8].ids[lane_best as usize % 8],
                         u: u_best,
                         v: v_best,
                     });
@@ -805,11 +931,13 @@ impl Accel {
         let mut sp = 0usize;
         let mut cur = 0u32;
         let mut tmins = [0.0f32; 8];
+        let mut tuv = [[0.0f32; 8]; 3];
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
             let mut hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
             let mut next = u32::MAX;
+            let mut leaves = 0u32;
             while hits != 0 {
                 let i = hits.trailing_zeros() as usize;
                 hits &= hits - 1;
@@ -821,12 +949,16 @@ impl Accel {
                     }
                     next = inner_child(node, meta);
                 } else {
-                    for slot in leaf_range(node, meta) {
-                        let t = self.intersect_slot::<MIXED>(slot, &r, t_max).0;
-                        if t > 0.0 && t < t_max {
-                            return true;
-                        }
-                    }
+                    leaves |= leaf_lanes(meta);
+                }
+            }
+            let base = node.primitive_base_idx as usize / 8;
+            while leaves != 0 {
+                let k = leaves.trailing_zeros() as usize / 8;
+                let lanes = (leaves >> (8 * k)) & 0xff;
+                leaves &= !(0xff << (8 * k));
+                if self.test_block::<MIXED, AVX>(base + k, lanes, &r, t_max, &mut tuv) != 0 {
+                    return true;
                 }
             }
             if next != u32::MAX {
@@ -840,6 +972,120 @@ impl Accel {
             }
         }
     }
+}
+
+/// Move every node's leaf primitives (the slot range `primitive_base_idx..+n`, `n` ≤ 24) into
+/// packets of their own, starting on a packet boundary, and point the node at its first lane.
+/// Returns the packets and the sphere lanes per packet (if `mixed`).
+fn pack_leaves(
+    bvh: &mut CwBvh,
+    slot_ids: &[u32],
+    n_tris: u32,
+    mixed: bool,
+    prim: impl Fn(u32) -> Prim,
+) -> (Vec<TriBlock>, Vec<u8>) {
+    let mut blocks: Vec<TriBlock> = Vec::with_capacity(slot_ids.len() / 4 + 1);
+    let mut sphere_lanes = Vec::new();
+    let unused = TriBlock {
+        ids: [u32::MAX; 8],
+        ..Default::default()
+    };
+    for node in bvh.nodes.iter_mut() {
+        let n = node
+            .child_meta
+            .iter()
+            .filter(|&&m| m >> 5 != 0 && !is_inner(m))
+            .map(|&m| leaf_lanes(m).ilog2() as usize + 1)
+            .max()
+            .unwrap_or(0);
+        if n == 0 {
+            continue;
+        }
+        let old = node.primitive_base_idx as usize;
+        let first = blocks.len();
+        node.primitive_base_idx = (first * 8) as u32;
+        blocks.resize(first + n.div_ceil(8), unused);
+        if mixed {
+            sphere_lanes.resize(blocks.len(), 0);
+        }
+        for (j, &id) in slot_ids[old..old + n].iter().enumerate() {
+            let (b, l) = (first + j / 8, j % 8);
+            blocks[b].set(l, &prim(id));
+            blocks[b].ids[l] = id;
+            if mixed && id >= n_tris {
+                sphere_lanes[b] |= 1 << l;
+            }
+        }
+    }
+    (blocks, sphere_lanes)
+}
+
+/// [`Accel::flat_block`] without AVX2: the same operations in the same order, lane by lane, so
+/// the results are bit-identical.
+#[inline(always)]
+fn block_portable(blk: &TriBlock, r: &TRay, t_max: f32, out: &mut [[f32; 8]; 3]) -> u32 {
+    let (o, d) = (r.o.to_array(), r.d.to_array());
+    let mut hits = 0;
+    for l in 0..8 {
+        let (cx, cy, cz) = (blk.a[0][l] - o[0], blk.a[1][l] - o[1], blk.a[2][l] - o[2]);
+        let rx = d[1] * cz - cy * d[2];
+        let ry = d[2] * cx - cz * d[0];
+        let rz = d[0] * cy - cx * d[1];
+        let dot = |ax: f32, ay: f32, az: f32, b: &[[f32; 8]; 3]| {
+            ax * b[0][l] + ay * b[1][l] + az * b[2][l]
+        };
+        let (b, c) = (&blk.b, &blk.c);
+        let n = [
+            b[1][l] * c[2][l] - c[1][l] * b[2][l],
+            b[2][l] * c[0][l] - c[2][l] * b[0][l],
+            b[0][l] * c[1][l] - c[0][l] * b[1][l],
+        ];
+        let inv_det = 1.0 / (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+        let u = dot(rx, ry, rz, &blk.c) * inv_det;
+        let v = dot(rx, ry, rz, &blk.b) * inv_det;
+        let w = 1.0 - u - v;
+        let t = (cx * n[0] + cy * n[1] + cz * n[2]) * inv_det;
+        let neg = (u.to_bits() | v.to_bits() | w.to_bits()) & 0x8000_0000 != 0;
+        if !neg && t > 0.0 && t < t_max {
+            hits |= 1 << l;
+            out[0][l] = t;
+            out[1][l] = u;
+            out[2][l] = v;
+        }
+    }
+    hits
+}
+
+/// Traversal counters for profiling (`--features bvh-stats`; off in normal builds): closest-hit
+/// node visits, packet tests, lanes tested.
+#[cfg(feature = "bvh-stats")]
+pub mod stats {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    static C: [AtomicU64; 3] = [const { AtomicU64::new(0) }; 3];
+
+    pub(super) fn count(what: usize, lanes: u64) {
+        C[what].fetch_add(1, Relaxed);
+        if what == 1 {
+            C[2].fetch_add(lanes, Relaxed);
+        }
+    }
+
+    /// (node visits, packet tests, lanes tested) since the start.
+    pub fn totals() -> [u64; 3] {
+        [C[0].load(Relaxed), C[1].load(Relaxed), C[2].load(Relaxed)]
+    }
+}
+/// Ask for the `lines` cache lines from `p` on (a hint: no effect on results, none off x86-64).
+#[inline(always)]
+fn prefetch<T>(p: *const T, lines: usize) {
+    #[cfg(target_arch = "x86_64")]
+    for k in 0..lines {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: a prefetch never faults, whatever the address.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((p as *const i8).wrapping_add(64 * k)) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (p, lines);
 }
 
 /// Whether the AVX2 traversal can be used on this CPU.

@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# Single-threaded closest-hit throughput, Embree 3 vs stokes, on the stored ray sets
+# (benches/data/rays/). Embree is not a dependency of stokes: without it this script says so and
+# exits 0 (skipped).
+#
+#   scripts/embree/run.sh [--install] [--rounds N] [--reps N] [--quality Q[,Q]] [--pin CPU]
+#                         [RAYSET ...]
+#
+#   --install     apt-get install libembree-dev (Embree 3) first if it is missing
+#   --rounds N    alternating Embree/stokes rounds (default 3); the table shows the median over
+#                 rounds of each process's median
+#   --reps N      timed passes over all rays inside each process (default 5)
+#   --quality Q   Embree build qualities: high, medium, low, comma separated (default high,medium)
+#   --pin CPU     run both harnesses under `taskset -c CPU`
+#   RAYSET        names in benches/data/rays (default: cbox soup100k and every other *_tris.bin)
+#
+# Embree: scripts/embree/raybench.c (cc -O3 -march=native) -> target/embree-raybench, one
+# thread, rtcIntersect1, device config "threads=1" (single-threaded build), FTZ/DAZ on. It also
+# checks its hits against the stored reference hits.
+# stokes: target/release/examples/raybench SET N_RAYS REPS with PRESET=medium, which builds
+# exactly as Accel::build does (obvhs medium_build, pre-split) and prints the build time.
+# Set STOKES_PRESET to time another obvhs preset, EMBREE_CONFIG to change the Embree device
+# config (default "threads=1"; e.g. "threads=1,isa=avx2").
+set -u
+cd "$(dirname "$0")/../.."
+
+install=0
+rounds=3
+reps=5
+quality=high,medium
+pin=()
+sets=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --install) install=1; shift ;;
+    --rounds) rounds="$2"; shift 2 ;;
+    --reps) reps="$2"; shift 2 ;;
+    --quality) quality="$2"; shift 2 ;;
+    --pin) pin=(taskset -c "$2"); shift 2 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -*) echo "unknown option $1 (see --help)" >&2; exit 2 ;;
+    *) sets+=("$1"); shift ;;
+  esac
+done
+
+have_embree() {
+  pkg-config --exists embree3 2>/dev/null || [ -f /usr/include/embree3/rtcore.h ]
+}
+
+if ! have_embree; then
+  if [ "$install" = 1 ]; then
+    sudo=()
+    [ "$(id -u)" = 0 ] || sudo=(sudo)
+    "${sudo[@]}" apt-get install -y libembree-dev || exit 1
+  else
+    echo "Embree 3 not installed (apt-get install libembree-dev); skipped (run with --install to install it)"
+    exit 0
+  fi
+fi
+
+data=benches/data/rays
+if [ ${#sets[@]} -eq 0 ]; then
+  sets=(cbox soup100k)
+  for f in "$data"/*_tris.bin; do
+    s=$(basename "$f" _tris.bin)
+    case " ${sets[*]} " in *" $s "*) ;; *) sets+=("$s") ;; esac
+  done
+fi
+for s in "${sets[@]}"; do
+  for part in tris rays hits_t hits_prim; do
+    [ -f "$data/${s}_$part.bin" ] || { echo "missing $data/${s}_$part.bin" >&2; exit 1; }
+  done
+done
+
+target=${CARGO_TARGET_DIR:-target}
+mkdir -p "$target"
+ebin=$target/embree-raybench
+if pkg-config --exists embree3 2>/dev/null; then
+  eflags=($(pkg-config --cflags --libs embree3))
+else
+  eflags=(-lembree3)
+fi
+cc -O3 -march=native -Wall scripts/embree/raybench.c -o "$ebin" "${eflags[@]}" -lm || exit 1
+cargo build --release --quiet --example raybench || exit 1
+sbin=$target/release/examples/raybench
+
+median() {
+  printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 }
+    END { if (NR == 0) print "nan"; else if (NR % 2) print a[(NR + 1) / 2];
+          else print (a[NR / 2] + a[NR / 2 + 1]) / 2 }'
+}
+
+IFS=, read -r -a quals <<<"$quality"
+log=$target/embree-raybench.log
+: >"$log"
+echo "$(nproc) CPUs, load average: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log"
+declare -A emed smed sbuild ebuild echk schk ntris
+checks=()
+for ((r = 1; r <= rounds; r++)); do
+  for s in "${sets[@]}"; do
+    # Embree (all requested qualities in one process, one scene each).
+    out=$("${pin[@]}" "$ebin" -d "$data" -c "${EMBREE_CONFIG-threads=1}" -q "$quality" \
+      -r "$reps" "$s") || exit 1
+    printf '%s\n' "$out" >>"$log"
+    while read -r tag set qual rest; do
+      q=${qual#quality=}
+      case "$tag" in
+        embree)
+          m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$rest")
+          emed[$s,$q]+=" $m"
+          ebuild[$s,$q]+=" $(sed -n 's/.*build_ms=\([0-9.]*\).*/\1/p' <<<"$rest")"
+          echk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$rest")
+          ntris[$s]=$(sed -n 's/.*tris=\([0-9]*\).*/\1/p' <<<"$rest")
+          echo "round $r: embree $s $q median $m Mrays/s" ;;
+        check)
+          [ "$r" = 1 ] && checks+=("$s $q: $rest") ;;
+      esac
+    done <<<"$out"
+    # stokes
+    out=$(env -u LEAF -u REINS -u NOSPLIT PRESET="${STOKES_PRESET:-medium}" \
+      "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
+    printf '%s\n' "$out" >>"$log"
+    m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$out")
+    smed[$s]+=" $m"
+    sbuild[$s]+=" $(sed -n 's/^build [a-z_]* \([0-9.]*\) ms.*/\1/p' <<<"$out")"
+    schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
+    echo "round $r: stokes $s median $m Mrays/s"
+  done
+done
+
+echo
+echo "Closest hit, 1 thread, Mrays/s (median over $rounds rounds of the median of $reps passes);"
+echo "build times in ms (median over rounds; Embree device threads=1, stokes obvhs single-threaded)"
+hdr=$(printf '%-10s %8s' "ray set" "tris")
+for q in "${quals[@]}"; do hdr+=$(printf ' %13s' "Embree $q"); done
+hdr+=$(printf ' %9s' "stokes")
+for q in "${quals[@]}"; do hdr+=$(printf ' %13s' "stokes/$q"); done
+echo "$hdr"
+for s in "${sets[@]}"; do
+  sm=$(median ${smed[$s]})
+  line=$(printf '%-10s %8s' "$s" "${ntris[$s]}")
+  for q in "${quals[@]}"; do line+=$(printf ' %13.3f' "$(median ${emed[$s,$q]})"); done
+  line+=$(printf ' %9.3f' "$sm")
+  for q in "${quals[@]}"; do
+    line+=$(printf ' %13.3f' "$(awk -v a="$sm" -v b="$(median ${emed[$s,$q]})" 'BEGIN { print a / b }')")
+  done
+  echo "$line"
+done
+echo
+printf '%-10s' "build ms"
+for q in "${quals[@]}"; do printf ' %13s' "Embree $q"; done
+printf ' %9s\n' "stokes"
+for s in "${sets[@]}"; do
+  printf '%-10s' "$s"
+  for q in "${quals[@]}"; do printf ' %13.2f' "$(median ${ebuild[$s,$q]})"; done
+  printf ' %9.2f\n' "$(median ${sbuild[$s]})"
+done
+echo
+echo "Embree vs the stored reference hits (round 1; t relative 1e-4 + 1e-6, ties allowed):"
+printf '  %s\n' "${checks[@]}"
+echo "Sum of hit t over all rays (chk), Embree vs stokes:"
+for s in "${sets[@]}"; do
+  awk -v s="$s" -v e="${echk[$s]}" -v k="${schk[$s]}" \
+    'BEGIN { printf "  %-10s Embree %.3f  stokes %.3f  rel. diff %.2e\n", s, e, k, (k - e) / e }'
+done
+echo "Raw output: $log"
