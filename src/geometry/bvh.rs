@@ -935,6 +935,14 @@ impl Accel {
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
+            if node.imask != 0xff {
+                prefetch(
+                    self.blocks
+                        .as_ptr()
+                        .wrapping_add(node.primitive_base_idx as usize / 8),
+                    5,
+                );
+            }
             let mut hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
             let mut next = u32::MAX;
             let mut leaves = 0u32;
@@ -948,6 +956,7 @@ impl Accel {
                         sp += 1;
                     }
                     next = inner_child(node, meta);
+                    prefetch(nodes.as_ptr().wrapping_add(next as usize), 2);
                 } else {
                     leaves |= leaf_lanes(meta);
                 }
