@@ -12,7 +12,8 @@
 #   --reps N      timed passes over all rays inside each process (default 5)
 #   --quality Q   Embree build qualities: high, medium, low, comma separated (default high,medium)
 #   --pin CPU     run both harnesses under `taskset -c CPU`
-#   RAYSET        names in benches/data/rays (default: cbox soup100k and every other *_tris.bin)
+#   RAYSET        names in benches/data/rays or target/rays (examples/make_rayset writes soup1m,
+#                 sphere1m, grid1m there); default: cbox soup100k and every other *_tris.bin
 #
 # Embree: scripts/embree/raybench.c (cc -O3 -march=native) -> target/embree-raybench, one
 # thread, rtcIntersect1, device config "threads=1" (single-threaded build), FTZ/DAZ on. It also
@@ -58,21 +59,26 @@ if ! have_embree; then
   fi
 fi
 
-data=benches/data/rays
+target=${CARGO_TARGET_DIR:-target}
+# A stored set (benches/data/rays), else one written by examples/make_rayset (target/rays).
+data_of() {
+  if [ -f "benches/data/rays/$1_tris.bin" ]; then echo benches/data/rays; else echo "$target/rays"; fi
+}
 if [ ${#sets[@]} -eq 0 ]; then
   sets=(cbox soup100k)
-  for f in "$data"/*_tris.bin; do
+  for f in benches/data/rays/*_tris.bin "$target"/rays/*_tris.bin; do
+    [ -f "$f" ] || continue
     s=$(basename "$f" _tris.bin)
     case " ${sets[*]} " in *" $s "*) ;; *) sets+=("$s") ;; esac
   done
 fi
 for s in "${sets[@]}"; do
+  data=$(data_of "$s")
   for part in tris rays hits_t hits_prim; do
-    [ -f "$data/${s}_$part.bin" ] || { echo "missing $data/${s}_$part.bin" >&2; exit 1; }
+    [ -f "$data/${s}_$part.bin" ] || { echo "missing $data/${s}_$part.bin (examples/make_rayset writes soup1m, sphere1m, grid1m)" >&2; exit 1; }
   done
 done
 
-target=${CARGO_TARGET_DIR:-target}
 mkdir -p "$target"
 ebin=$target/embree-raybench
 if pkg-config --exists embree3 2>/dev/null; then
@@ -99,7 +105,7 @@ checks=()
 for ((r = 1; r <= rounds; r++)); do
   for s in "${sets[@]}"; do
     # Embree (all requested qualities in one process, one scene each).
-    out=$("${pin[@]}" "$ebin" -d "$data" -c "${EMBREE_CONFIG-threads=1}" -q "$quality" \
+    out=$("${pin[@]}" "$ebin" -d "$(data_of "$s")" -c "${EMBREE_CONFIG-threads=1}" -q "$quality" \
       -r "$reps" "$s") || exit 1
     printf '%s\n' "$out" >>"$log"
     while read -r tag set qual rest; do

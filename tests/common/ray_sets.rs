@@ -16,10 +16,16 @@ pub struct RaySet {
     pub hits_prim: Vec<i32>,
 }
 
+/// A stored set (`benches/data/rays/`), else a generated one (`target/rays/`, written by
+/// examples/make_rayset).
 fn read_words(name: &str) -> Vec<[u8; 4]> {
-    let path: PathBuf = [env!("CARGO_MANIFEST_DIR"), "benches", "data", "rays", name]
+    let stored: PathBuf = [env!("CARGO_MANIFEST_DIR"), "benches", "data", "rays", name]
         .iter()
         .collect();
+    let generated: PathBuf = [env!("CARGO_MANIFEST_DIR"), "target", "rays", name]
+        .iter()
+        .collect();
+    let path = if stored.is_file() { stored } else { generated };
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     assert_eq!(bytes.len() % 4, 0);
     bytes
