@@ -608,10 +608,7 @@ fn triangles_light_shape(tris: &[Triangle], area: f32) -> LightShape {
             acc
         })
         .collect();
-    LightShape::Triangles {
-        tris: tris.to_vec(),
-        cdf,
-    }
+    LightShape::triangles(tris.to_vec(), cdf)
 }
 
 /// The triangles, or the sphere, of the shape at JSON path `base` (relative files are in `dir`),

@@ -14,15 +14,24 @@ use std::f32::consts::{FRAC_1_PI, PI};
 /// The emitting shape of a light (its own copy of the geometry, so sampling needs no scene).
 #[derive(Clone, Debug)]
 pub enum LightShape {
-    /// Triangles with an area CDF.
+    /// Triangles with an area CDF and their unit normals (made once, not per sample).
     Triangles {
         tris: Vec<Triangle>,
         cdf: Vec<f32>,
+        normals: Vec<Vec3>,
     },
     Sphere {
         sphere: Sphere,
         flip: bool,
     },
+}
+
+impl LightShape {
+    /// Triangles `tris` with the area CDF `cdf`.
+    pub fn triangles(tris: Vec<Triangle>, cdf: Vec<f32>) -> LightShape {
+        let normals = tris.iter().map(|t| t.normal_raw().normalize()).collect();
+        LightShape::Triangles { tris, cdf, normals }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -93,12 +102,11 @@ impl AreaLight {
     /// Uniform point by area (`u` picks the triangle, `v` the point).
     pub fn sample_point(&self, u: f32, v: [f32; 2]) -> LightPoint {
         match &self.shape {
-            LightShape::Triangles { tris, cdf } => {
+            LightShape::Triangles { tris, cdf, normals } => {
                 let k = cdf.partition_point(|&c| c <= u).min(tris.len() - 1);
-                let tri = &tris[k];
                 LightPoint {
-                    p: tri.sample_uniform(v[0], v[1]),
-                    n: tri.normal_raw().normalize(),
+                    p: tris[k].sample_uniform(v[0], v[1]),
+                    n: normals[k],
                     pdf_area: 1.0 / self.area,
                 }
             }
@@ -354,10 +362,7 @@ mod tests {
         );
         let tris = vec![Triangle::new(a, b, c), Triangle::new(a, c, d)];
         let area = 4.0;
-        let shape = LightShape::Triangles {
-            tris,
-            cdf: vec![0.5, 1.0],
-        };
+        let shape = LightShape::triangles(tris, vec![0.5, 1.0]);
         AreaLight::new(
             "q".into(),
             shape,

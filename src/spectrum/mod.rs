@@ -123,7 +123,7 @@ impl Spectrum {
                 if n == 1 {
                     return ys[0];
                 }
-                let i = xs.partition_point(|&x| x <= l).clamp(1, n - 1);
+                let i = knot_above(xs, l);
                 let (x0, x1) = (xs[i - 1], xs[i]);
                 let t = (l - x0) / (x1 - x0);
                 ys[i - 1] * (1.0 - t) + ys[i] * t
@@ -353,9 +353,47 @@ fn erfc_abs(z: f64) -> f64 {
         .exp()
 }
 
+/// The first knot above `l` (clamped to 1..n−1) of a table with n ≥ 2 knots and
+/// `xs[0] ≤ l ≤ xs[n−1]`: on an evenly spaced long table (measured data mostly is) the index
+/// computed from `l` is checked and taken, O(1); else a binary search (short tables: always).
+/// Either way the same index.
+#[inline]
+fn knot_above(xs: &[f32], l: f32) -> usize {
+    let n = xs.len();
+    if n > 16 {
+        let g = ((l - xs[0]) / (xs[n - 1] - xs[0]) * (n - 1) as f32) as usize + 1;
+        let g = g.clamp(1, n - 1);
+        if xs[g - 1] <= l && (g == n - 1 || l < xs[g]) {
+            return g;
+        }
+    }
+    xs.partition_point(|&x| x <= l).clamp(1, n - 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The guessed knot is the binary search's, on even and uneven tables, at and between knots.
+    #[test]
+    fn knot_above_is_the_binary_search() {
+        let even: Vec<f32> = (0..95).map(|i| 360.0 + 5.0 * i as f32).collect();
+        let uneven = vec![360.0, 361.0, 400.0, 400.5, 555.0, 556.0, 700.0, 830.0];
+        let third: Vec<f32> = (0..31).map(|i| 380.0 + i as f32 / 3.0 * 10.0).collect();
+        for xs in [even, uneven, third, vec![400.0, 700.0]] {
+            let (lo, hi) = (xs[0], xs[xs.len() - 1]);
+            let mut ls: Vec<f32> = (0..=20_000)
+                .map(|k| lo + (hi - lo) * k as f32 / 20_000.0)
+                .collect();
+            ls.extend(&xs);
+            ls.extend(xs.iter().map(|x| x.next_up().min(hi)));
+            ls.extend(xs.iter().map(|x| x.next_down().max(lo)));
+            for l in ls {
+                let want = xs.partition_point(|&x| x <= l).clamp(1, xs.len() - 1);
+                assert_eq!(knot_above(&xs, l), want, "{l} in {xs:?}");
+            }
+        }
+    }
 
     #[test]
     fn erfc_matches_reference_values_in_the_tails() {
