@@ -1,4 +1,7 @@
-//! Closest-hit throughput on the stored ray sets (`benches/data/rays/`), 2 threads via rayon.
+//! Closest-hit throughput on the stored ray sets (`benches/data/rays/`) and, when
+//! `cargo run --release --example make_rayset soup1m|sphere1m|grid1m` has written them to
+//! `target/rays/`, the 1M-triangle sets; 1 thread (the Embree 3 comparison of
+//! scripts/embree/run.sh and docs/performance.md) and 2 threads via rayon.
 //!
 //! Before timing, the hits are verified against the stored reference hits (t relative 1e-4,
 //! primitive ids equal or tied) and the match rates printed.
@@ -15,16 +18,31 @@ use stokes::geometry::Accel;
 const CHUNK: usize = 1024;
 
 fn bench_rays(c: &mut Criterion) {
+    let mut sets = vec!["cbox", "soup100k"];
+    let generated = concat!(env!("CARGO_MANIFEST_DIR"), "/target/rays");
+    for name in ["soup1m", "sphere1m", "grid1m"] {
+        if std::path::Path::new(&format!("{generated}/{name}_rays.bin")).exists() {
+            sets.push(name);
+        } else {
+            println!("{name}: not generated (cargo run --release --example make_rayset {name})");
+        }
+    }
+    for threads in [1, 2] {
+        bench_threads(c, &sets, threads);
+    }
+}
+
+fn bench_threads(c: &mut Criterion, sets: &[&str], threads: usize) {
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
+        .num_threads(threads)
         .build()
         .unwrap();
-    let mut group = c.benchmark_group("closest_hit_2threads");
+    let mut group = c.benchmark_group(format!("closest_hit_{threads}thread"));
     group.sample_size(10);
     group.warm_up_time(Duration::from_secs(1));
     group.measurement_time(Duration::from_secs(3));
 
-    for name in ["cbox", "soup100k"] {
+    for &name in sets {
         let set = ray_sets::load(name);
         let t0 = std::time::Instant::now();
         let accel = Accel::build(&set.tris, &[]);

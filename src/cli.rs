@@ -410,7 +410,9 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         use crate::material::Bbrrdf;
         let kind = match m {
             crate::material::Material::Lambert(_) => "lambert".to_string(),
+            #[cfg(feature = "fluorescence")]
             crate::material::Material::Fluorescent(_) => "fluorescent-diffuse".to_string(),
+            #[cfg(feature = "fluorescence")]
             crate::material::Material::Reradiation(r) => {
                 let (o, i) = r.shape();
                 format!(
@@ -418,6 +420,7 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
                     r.render_bytes()
                 )
             }
+            #[cfg(feature = "fluorescence")]
             crate::material::Material::ReradiationGmm(g) => format!(
                 "reradiation-gmm, {} Gaussians, model {} bytes, {} bytes to render",
                 g.components(),

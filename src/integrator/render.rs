@@ -143,11 +143,69 @@ pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> R
     }
 }
 
+/// What a row leaves besides its pixel values, which go straight into the film.
 struct RowResult {
-    values: Vec<Vec3>,
     splats: Vec<(u32, Vec3)>,
     aux: Vec<(u16, u32, Vec3)>,
     stats: Stats,
+}
+
+/// One pass: sample `s` of every pixel, rows in parallel. Each row adds its values to its own
+/// film row; splats and strategy-image values are added afterwards in row order, so every sum
+/// sees the same additions in the same order whatever the thread count.
+fn pass<I: Integrator>(
+    scene: &Scene,
+    integrator: &I,
+    seed: u64,
+    s: u32,
+    film: &mut Film,
+    stats: &mut Stats,
+) {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let rows: Vec<RowResult> = film
+        .sum
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .map_init(
+            || integrator.scratch(scene),
+            |scratch, (y, film_row)| {
+                let y = y as u32;
+                let mut r = RowResult {
+                    splats: Vec::new(),
+                    aux: Vec::new(),
+                    stats: Stats::default(),
+                };
+                for (x, sum) in (0..w).zip(film_row.iter_mut()) {
+                    let pixel = y * w + x;
+                    let mut sampler = Sampler::new(seed, pixel as u64, s as u64);
+                    let (jx, jy) = (sampler.next(), sampler.next());
+                    let mut sink = SampleSink {
+                        value: Vec3::ZERO,
+                        width: w,
+                        height: h,
+                        splats: &mut r.splats,
+                        aux: &mut r.aux,
+                        stats: &mut r.stats,
+                        pixel,
+                    };
+                    sink.stats.paths += 1;
+                    let (fx, fy) = (x as f32 + jx, y as f32 + jy);
+                    integrator.sample(scene, fx, fy, &mut sampler, scratch, &mut sink);
+                    Film::add(sum, sink.value);
+                }
+                r
+            },
+        )
+        .collect();
+    for r in &rows {
+        for (p, v) in &r.splats {
+            Film::add(&mut film.splat[*p as usize], *v);
+        }
+        for (l, p, v) in &r.aux {
+            Film::add(&mut film.aux[*l as usize][*p as usize], *v);
+        }
+        stats.merge(&r.stats);
+    }
 }
 
 /// Run any integrator through the pass loop.
@@ -187,58 +245,7 @@ pub fn run<I: Integrator>(
             )
         })?;
     for s in settings.first_sample..end {
-        let rows: Vec<RowResult> = (0..h)
-            .into_par_iter()
-            .map_init(
-                || integrator.scratch(scene),
-                |scratch, y| {
-                    let mut r = RowResult {
-                        values: Vec::with_capacity(w as usize),
-                        splats: Vec::new(),
-                        aux: Vec::new(),
-                        stats: Stats::default(),
-                    };
-                    for x in 0..w {
-                        let pixel = y * w + x;
-                        let mut sampler = Sampler::new(settings.seed, pixel as u64, s as u64);
-                        let (jx, jy) = (sampler.next(), sampler.next());
-                        let mut sink = SampleSink {
-                            value: Vec3::ZERO,
-                            width: w,
-                            height: h,
-                            splats: &mut r.splats,
-                            aux: &mut r.aux,
-                            stats: &mut r.stats,
-                            pixel,
-                        };
-                        sink.stats.paths += 1;
-                        integrator.sample(
-                            scene,
-                            x as f32 + jx,
-                            y as f32 + jy,
-                            &mut sampler,
-                            scratch,
-                            &mut sink,
-                        );
-                        r.values.push(sink.value);
-                    }
-                    r
-                },
-            )
-            .collect();
-        for (y, r) in rows.iter().enumerate() {
-            let base = y * w as usize;
-            for (x, v) in r.values.iter().enumerate() {
-                Film::add(&mut film.sum[base + x], *v);
-            }
-            for (p, v) in &r.splats {
-                Film::add(&mut film.splat[*p as usize], *v);
-            }
-            for (l, p, v) in &r.aux {
-                Film::add(&mut film.aux[*l as usize][*p as usize], *v);
-            }
-            stats.merge(&r.stats);
-        }
+        pass(scene, integrator, settings.seed, s, &mut film, &mut stats);
         film.spp += 1;
         let secs = start.elapsed().as_secs_f64();
         if let Some(b) = &bar {

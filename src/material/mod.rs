@@ -231,10 +231,14 @@ pub trait Bbrrdf {
 
 /// A material of the scene (enum dispatch keeps the hot path free of virtual calls).
 #[derive(Clone, Debug)]
+/// Without the `fluorescence` feature only the Lambertian variant exists.
 pub enum Material {
     Lambert(Lambert),
+    #[cfg(feature = "fluorescence")]
     Fluorescent(FluorescentDiffuse),
+    #[cfg(feature = "fluorescence")]
     Reradiation(Reradiation),
+    #[cfg(feature = "fluorescence")]
     ReradiationGmm(ReradiationGmm),
 }
 
@@ -242,8 +246,11 @@ macro_rules! dispatch {
     ($self:ident, $m:ident => $e:expr) => {
         match $self {
             Material::Lambert($m) => $e,
+            #[cfg(feature = "fluorescence")]
             Material::Fluorescent($m) => $e,
+            #[cfg(feature = "fluorescence")]
             Material::Reradiation($m) => $e,
+            #[cfg(feature = "fluorescence")]
             Material::ReradiationGmm($m) => $e,
         }
     };
@@ -264,6 +271,7 @@ impl Material {
     pub fn diagonal_lanes<L: Lanes>(&self, n: usize, lambda: L) -> L {
         match self {
             Material::Lambert(l) => l.reflectance.eval_lanes(n, lambda),
+            #[cfg(feature = "fluorescence")]
             _ => L::from_fn(n, |j| self.diagonal(lambda.lane(j))),
         }
     }

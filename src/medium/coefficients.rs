@@ -112,9 +112,11 @@ impl Coefficients {
 
     /// True when the medium shifts wavelengths.
     pub fn is_fluorescent(&self) -> bool {
-        self.fluorophore
-            .as_ref()
-            .is_some_and(|f| f.c > 0.0 && f.phi > 0.0)
+        cfg!(feature = "fluorescence")
+            && self
+                .fluorophore
+                .as_ref()
+                .is_some_and(|f| f.c > 0.0 && f.phi > 0.0)
     }
 
     /// σ̂t, σ̂s (camera side) and σs at every lane (Mojzík Table 1).

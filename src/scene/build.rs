@@ -309,12 +309,21 @@ fn material(
 ) -> Result<Material, InputError> {
     let err = |p: &str, m: String| at(ctx.file, p, m);
     let domain = ctx.domain;
+    if !cfg!(feature = "fluorescence") && !matches!(desc, MaterialDesc::Lambert { .. }) {
+        return Err(err(
+            &format!("{base}.type"),
+            "this build of stokes has no fluorescent materials (built without the \
+             `fluorescence` cargo feature); rebuild with the default features"
+                .into(),
+        ));
+    }
     Ok(match desc {
         MaterialDesc::Lambert { reflectance } => {
             let r = ctx.parse(&reflectance, &format!("{base}.reflectance"))?;
             check_reflectance(ctx, base, &r)?;
             Material::Lambert(Lambert { reflectance: r })
         }
+        #[cfg(feature = "fluorescence")]
         MaterialDesc::FluorescentDiffuse {
             reflectance,
             absorption,
@@ -342,6 +351,7 @@ fn material(
             warnings.extend(w.into_iter().map(|w| format!("{base}: {w}")));
             Material::Fluorescent(m)
         }
+        #[cfg(feature = "fluorescence")]
         MaterialDesc::Reradiation { file } => {
             let full = ctx.dir.join(&file);
             let text = std::fs::read_to_string(&full).map_err(|e| {
@@ -358,6 +368,7 @@ fn material(
             })?;
             Material::Reradiation(m)
         }
+        #[cfg(feature = "fluorescence")]
         MaterialDesc::ReradiationGmm {
             file,
             bfc,
@@ -375,6 +386,8 @@ fn material(
             let f = gmm::load(ctx.file, &ctx.dir, base, src, warnings)?;
             Material::ReradiationGmm(crate::material::ReradiationGmm::new(&f, domain))
         }
+        #[cfg(not(feature = "fluorescence"))]
+        _ => unreachable!("refused above"),
     })
 }
 

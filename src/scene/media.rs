@@ -74,6 +74,14 @@ fn medium(
     desc: MediumDesc,
     warnings: &mut Vec<String>,
 ) -> Result<Medium, InputError> {
+    if !cfg!(feature = "media") {
+        return Err(InputError::new(
+            ctx.file,
+            base,
+            "this build of stokes has no participating media (built without the `media` cargo \
+             feature); rebuild with the default features",
+        ));
+    }
     let (sigma_a, sigma_s, phase, fluorescence, density) = match desc {
         MediumDesc::Homogeneous {
             sigma_a,
@@ -99,6 +107,14 @@ fn medium(
     };
     let fluorescence: Option<FluorescenceDesc> = match fluorescence {
         None => None,
+        Some(_) if !cfg!(feature = "fluorescence") => {
+            return Err(InputError::new(
+                ctx.file,
+                format!("{base}.fluorescence"),
+                "this build of stokes has no fluorescence (built without the `fluorescence` \
+                 cargo feature); rebuild with the default features",
+            ));
+        }
         Some(v) => Some(from_json_value(
             ctx.file,
             &format!("{base}.fluorescence"),

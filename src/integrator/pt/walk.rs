@@ -66,8 +66,8 @@ impl Walk {
         sampler: &mut Sampler,
         sink: &mut SampleSink,
     ) {
-        // A scene without media never runs medium code.
-        if scene.has_media {
+        // A scene without media never runs medium code (none exists without the `media` feature).
+        if cfg!(feature = "media") && scene.has_media {
             self.trace_in::<L, true>(scene, x, y, sampler, sink)
         } else {
             self.trace_in::<L, false>(scene, x, y, sampler, sink)
@@ -343,7 +343,7 @@ impl Walk {
         sampler: &mut Sampler,
     ) -> Option<(L, L)> {
         let n = self.lanes;
-        if !(scene.has_fluorescence && m.is_fluorescent()) {
+        if !(cfg!(feature = "fluorescence") && scene.has_fluorescence && m.is_fluorescent()) {
             return Some((lambda, m.diagonal_lanes(n, lambda)));
         }
         // Each lane samples its own λin (Jung 5.3) with its own random numbers.

@@ -20,12 +20,14 @@ pub fn scene_spectra(scene: &Scene) -> Vec<(String, &Spectrum)> {
         let base = format!("materials.{name}");
         match m {
             Material::Lambert(l) => out.push((format!("{base}.reflectance"), &l.reflectance)),
+            #[cfg(feature = "fluorescence")]
             Material::Fluorescent(f) => {
                 out.push((format!("{base}.reflectance"), &f.r));
                 out.push((format!("{base}.absorption"), &f.a));
                 out.push((format!("{base}.emission"), &f.e));
             }
             // Measured and fitted matrices: their bin operators integrate the kernel per bin.
+            #[cfg(feature = "fluorescence")]
             Material::Reradiation(_) | Material::ReradiationGmm(_) => {}
         }
     }

@@ -1,0 +1,213 @@
+#!/usr/bin/env python3
+"""Measure the speed goals of docs/performance.md, back to back on this machine.
+
+Every comparison alternates its two sides for --rounds rounds and reports the median of each
+side and their ratio, so that a slow spell of a shared machine hits both sides alike. Results
+go to stdout as a Markdown table and to target/performance.json.
+
+Goals (--only NAME[,NAME]; default all):
+  rays      closest-hit Mrays/s against Embree 3, 1 thread, on the stored ray sets and the
+            1M-triangle sets of examples/make_rayset (written to target/rays when missing), by
+            scripts/embree/run.sh (skipped without libembree-dev)
+  mitsuba   pt-hero against Mitsuba 3 llvm_ad_spectral `path` on scenes/cornell-box.json
+            (256², depth 8, no Russian roulette, 2 threads) and against `volpath` on
+            scenes/cornell-box-medium.json (depth 16); skipped when `import mitsuba` fails
+  bdpt      per-sample cost of bdpt-forward against pt-hero (cornell-box) and of bdpt-backward
+            against bdpt-forward (fluorescent-walls), 2 threads
+  scaling   samples/s at 2 threads over 1 thread for every integrator on cornell-box
+  features  pt-hero on cornell-box (no fluorescent material, no medium) with the default build
+            against builds that compile the fluorescence or media code paths out
+            (`--no-default-features`, target/lean-*)
+
+Usage (from anywhere):  python3 scripts/performance.py [--rounds 3] [--only bdpt,scaling]
+Mitsuba: pip install mitsuba==3.9.1, apt-get install libllvm19 and
+DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so (set here when that file exists).
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+INTEGRATORS = ["pt-mono", "pt-hero", "bdpt-forward", "bdpt-backward", "bdpt-allbins"]
+# Samples per pixel per render, chosen so that a render takes about 1-4 s at 2 threads.
+SPP = {"pt-mono": 128, "pt-hero": 64, "bdpt-forward": 16, "bdpt-backward": 16, "bdpt-allbins": 4}
+
+
+def run(cmd, **kw):
+    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, **kw)
+    if r.returncode != 0:
+        sys.exit("command failed (%d): %s\n%s" % (r.returncode, " ".join(cmd), r.stderr[-2000:]))
+    return r.stdout
+
+
+def build(target_dir=None, features=None):
+    cmd = ["cargo", "build", "--release", "--bin", "stokes"]
+    if target_dir:
+        cmd += ["--target-dir", target_dir, "--no-default-features"]
+        if features:
+            cmd += ["--features", features]
+    run(cmd)
+    return os.path.join(target_dir or "target", "release", "stokes")
+
+
+def stokes(binary, scene, integrator, spp, threads=2, depth=8, extra=()):
+    """Samples per second of one render (render time only, from --stats)."""
+    with tempfile.TemporaryDirectory() as d:
+        stats = os.path.join(d, "s.json")
+        run([binary, "render", "scenes/%s.json" % scene, "--integrator", integrator,
+             "--spp", str(spp), "--threads", str(threads), "--max-depth", str(depth),
+             "-o", os.path.join(d, "x.exr"), "--stats", stats, "--quiet", *extra])
+        with open(stats) as f:
+            return json.load(f)["samples_per_second"]
+
+
+def mitsuba(medium, spp):
+    cmd = [sys.executable, "scripts/mitsuba/cbox.py", "--variant", "llvm_ad_spectral",
+           "--spp", str(spp), "--threads", "2"]
+    cmd += ["--medium", "--max-depth", "16"] if medium else ["--max-depth", "8"]
+    return json.loads(run(cmd))["samples_per_second"]
+
+
+def compare(rounds, a, b):
+    """Medians of a() and b() alternated over `rounds` rounds, and median(a) / median(b)."""
+    xs, ys = [], []
+    for _ in range(rounds):
+        xs.append(a())
+        ys.append(b())
+    ma, mb = statistics.median(xs), statistics.median(ys)
+    return {"a": ma, "b": mb, "ratio": ma / mb, "a_runs": xs, "b_runs": ys}
+
+
+def row(goal, what, r, a_name, b_name, target, unit="M samples/s", met=None):
+    line = "| %s | %s | %s %.3f | %s %.3f | %.2f× | %s |" % (
+        goal, what, a_name, r["a"] / 1e6, b_name, r["b"] / 1e6, r["ratio"], target)
+    if met is not None:
+        line += " %s |" % ("met" if met else "not met")
+    print(line, flush=True)
+    r.update(goal=goal, what=what, a_name=a_name, b_name=b_name, target=target, unit=unit)
+    return r
+
+
+def goal_mitsuba(rounds, exe):
+    try:
+        subprocess.run([sys.executable, "-c", "import mitsuba"], check=True,
+                       capture_output=True)
+    except subprocess.CalledProcessError:
+        print("| 2 | Mitsuba 3 not installed (pip install mitsuba==3.9.1): skipped |")
+        return []
+    out = []
+    r = compare(rounds, lambda: stokes(exe, "cornell-box", "pt-hero", 64),
+                lambda: mitsuba(False, 64))
+    out.append(row("2", "pt-hero vs Mitsuba `path`, cornell-box", r, "stokes", "Mitsuba",
+                   "≥ 1.3×", met=r["ratio"] >= 1.3))
+    r = compare(rounds, lambda: stokes(exe, "cornell-box-medium", "pt-hero", 32, depth=16),
+                lambda: mitsuba(True, 32))
+    out.append(row("2", "pt-hero vs Mitsuba `volpath`, cornell-box-medium", r, "stokes",
+                   "Mitsuba", "≥ 1×", met=r["ratio"] >= 1.0))
+    return out
+
+
+def goal_bdpt(rounds, exe):
+    out = []
+    r = compare(rounds, lambda: stokes(exe, "cornell-box", "pt-hero", 64),
+                lambda: stokes(exe, "cornell-box", "bdpt-forward", 16))
+    out.append(row("3", "bdpt-forward cost per sample / pt-hero's, cornell-box", r, "pt-hero",
+                   "bdpt-forward", "≤ 3.5×", met=r["ratio"] <= 3.5))
+    r = compare(rounds, lambda: stokes(exe, "fluorescent-walls", "bdpt-forward", 16),
+                lambda: stokes(exe, "fluorescent-walls", "bdpt-backward", 16))
+    out.append(row("3", "bdpt-backward cost per sample / bdpt-forward's, fluorescent-walls", r,
+                   "forward", "backward", "≤ 1.1×", met=r["ratio"] <= 1.1))
+    return out
+
+
+def two_processes(exe, integrator, spp):
+    """Sum of the samples/s of two 1-thread renders run at the same time."""
+    with tempfile.TemporaryDirectory() as d:
+        procs, stats = [], []
+        for k in range(2):
+            stats.append(os.path.join(d, "s%d.json" % k))
+            procs.append(subprocess.Popen(
+                [exe, "render", "scenes/cornell-box.json", "--integrator", integrator, "--spp",
+                 str(spp), "--threads", "1", "-o", os.path.join(d, "x%d.exr" % k), "--stats",
+                 stats[k], "--quiet"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL))
+        if any(p.wait() != 0 for p in procs):
+            sys.exit("a 1-thread render failed")
+        total = 0.0
+        for f in stats:
+            with open(os.path.join(ROOT, f)) as fh:
+                total += json.load(fh)["samples_per_second"]
+        return total
+
+
+def goal_scaling(rounds, exe):
+    # The machine's own ceiling: two independent 1-thread processes against one.
+    r = compare(rounds, lambda: two_processes(exe, "pt-hero", 32),
+                lambda: stokes(exe, "cornell-box", "pt-hero", 32, threads=1))
+    out = [row("4", "control: two 1-thread pt-hero processes at once / one alone", r,
+               "two", "one", "(machine)")]
+    for i in INTEGRATORS:
+        spp = SPP[i]
+        r = compare(rounds, lambda: stokes(exe, "cornell-box", i, spp, threads=2),
+                    lambda: stokes(exe, "cornell-box", i, spp, threads=1))
+        out.append(row("4", "%s, 2 threads / 1 thread, cornell-box" % i, r, "2 threads",
+                       "1 thread", "≥ 1.9×", met=r["ratio"] >= 1.9))
+    return out
+
+
+def goal_features(rounds, exe):
+    out = []
+    for feature, other in [("fluorescence", "media"), ("media", "fluorescence")]:
+        lean = build("target/lean-no-" + feature, other)
+        r = compare(rounds, lambda: stokes(lean, "cornell-box", "pt-hero", 64),
+                    lambda: stokes(exe, "cornell-box", "pt-hero", 64))
+        out.append(row("5", "pt-hero, cornell-box: build without `%s` / default build" % feature,
+                       r, "without", "default", "≤ 1.03×", met=r["ratio"] <= 1.03))
+    return out
+
+
+def goal_rays(_rounds, _exe):
+    run(["cargo", "build", "--release", "--example", "raybench", "--example", "make_rayset"])
+    for name in ["soup1m", "sphere1m", "grid1m"]:
+        if not os.path.exists(os.path.join(ROOT, "target", "rays", name + "_rays.bin")):
+            run([os.path.join("target", "release", "examples", "make_rayset"), name])
+    r = subprocess.run(["bash", "scripts/embree/run.sh", "--quality", "medium"], cwd=ROOT,
+                       text=True, capture_output=True)
+    print(r.stdout, end="")
+    return [{"goal": "1", "embree_output": r.stdout}]
+
+
+GOALS = {"rays": goal_rays, "mitsuba": goal_mitsuba, "bdpt": goal_bdpt,
+         "scaling": goal_scaling, "features": goal_features}
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--only", default=",".join(GOALS))
+    a = p.parse_args()
+    names = [n for n in a.only.split(",") if n]
+    for n in names:
+        if n not in GOALS:
+            sys.exit("unknown goal %r (known: %s)" % (n, ", ".join(GOALS)))
+    if os.path.exists(LLVM):
+        os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
+    exe = build()
+    print("| goal | what | A | B | A / B | target | |")
+    print("|---|---|---|---|---|---|---|")
+    results = []
+    for n in names:
+        results += GOALS[n](a.rounds, exe)
+    os.makedirs(os.path.join(ROOT, "target"), exist_ok=True)
+    with open(os.path.join(ROOT, "target", "performance.json"), "w") as f:
+        json.dump(results, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
