@@ -202,6 +202,7 @@ impl Stats {
 
 /// The random stream of one pixel sample: a PCG stream derived from (seed, pixel, sample index),
 /// so renders are reproducible whatever the thread count.
+#[derive(Clone)]
 pub struct Sampler {
     rng: rand_pcg::Pcg32,
 }

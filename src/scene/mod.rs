@@ -99,7 +99,7 @@ impl Scene {
     }
 
     /// Closest surface hit.
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Interaction> {
         let h = self.accel.intersect(ray, t_max)?;
         let p = ray.at(h.t);

@@ -4,7 +4,7 @@
 //! radiance of 1 gives Y = 1 (the convention of pbrt-v4 and Mitsuba 3).
 
 use super::{Distribution1D, Domain, Spectrum};
-use glam::{Mat3, Vec3};
+use glam::{IVec4, Mat3, Mat4, Vec3, Vec3A, Vec4};
 use std::sync::OnceLock;
 
 const CMF_CSV: &str = include_str!("../../data/spectra/cie1931_2deg_xyz_1nm.csv");
@@ -15,7 +15,8 @@ pub const CMF_DOMAIN: Domain = Domain {
 };
 
 struct CmfTable {
-    xyz: Vec<Vec3>,
+    /// (x̄, ȳ, z̄) at 360 + i nm, as 16-byte rows (one load each in [`cmf4`]).
+    xyz: Vec<Vec3A>,
 }
 
 fn table() -> &'static CmfTable {
@@ -30,7 +31,7 @@ fn table() -> &'static CmfTable {
                     .split(',')
                     .map(|x| x.trim().parse().expect("CIE table is valid"))
                     .collect();
-                Vec3::new(v[1], v[2], v[3])
+                Vec3A::new(v[1], v[2], v[3])
             })
             .collect::<Vec<_>>();
         assert_eq!(xyz.len(), 471, "CIE table has 471 rows (360–830 nm)");
@@ -48,7 +49,34 @@ pub fn cmf(l: f32) -> Vec3 {
     }
     let i = (f as usize).min(469);
     let w = f - i as f32;
-    t.xyz[i] * (1.0 - w) + t.xyz[i + 1] * w
+    (t.xyz[i] * (1.0 - w) + t.xyz[i + 1] * w).into()
+}
+
+/// [`cmf`] at four wavelengths, as the x̄, ȳ and z̄ of the four lanes: the same values, each
+/// lane's knot and weight found as [`cmf`] finds them (four at once) and its two rows
+/// interpolated with the same operations (x̄, ȳ, z̄ at once).
+#[inline]
+pub fn cmf4(l: Vec4) -> [Vec4; 3] {
+    let t = table();
+    let f = l - Vec4::splat(CMF_DOMAIN.min);
+    // `(0.0..=470.0).contains(&f)`, false for NaN; other lanes read row 0 and end up zero.
+    let inside = f.cmpge(Vec4::ZERO) & f.cmple(Vec4::splat(470.0));
+    let f = Vec4::select(inside, f, Vec4::ZERO);
+    // `f as usize` for f in [0, 470].
+    let i = f.as_ivec4().min(IVec4::splat(469));
+    let w = f - i.as_vec4();
+    let v = 1.0 - w;
+    let row = |j: usize| {
+        let k = i[j] as usize;
+        (t.xyz[k] * v[j] + t.xyz[k + 1] * w[j]).extend(0.0)
+    };
+    let m = Mat4::from_cols(row(0), row(1), row(2), row(3)).transpose();
+    let zero = Vec4::ZERO;
+    [
+        Vec4::select(inside, m.x_axis, zero),
+        Vec4::select(inside, m.y_axis, zero),
+        Vec4::select(inside, m.z_axis, zero),
+    ]
 }
 
 /// The observer restricted to a camera range, with its normalisation.
@@ -223,6 +251,41 @@ pub fn srgb_encode(c: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::spectrum::DEFAULT_DOMAIN;
+
+    #[test]
+    fn cmf4_is_cmf_lane_by_lane() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(9);
+        let edges = [
+            359.9,
+            360.0,
+            360.5,
+            400.0,
+            829.0,
+            829.99,
+            830.0,
+            830.01,
+            -1.0,
+            f32::NAN,
+            f32::INFINITY,
+        ];
+        let random = (0..4000).map(|_| rng.random_range(300.0..900.0f32));
+        let ls: Vec<f32> = edges.into_iter().chain(random).collect();
+        for w in ls.windows(4) {
+            let l = Vec4::from_slice(w);
+            let [x, y, z] = cmf4(l);
+            for j in 0..4 {
+                let c = cmf(l[j]);
+                let got = [x[j], y[j], z[j]];
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    c.to_array().map(f32::to_bits),
+                    "{}",
+                    l[j]
+                );
+            }
+        }
+    }
 
     fn d65() -> Spectrum {
         let csv = include_str!("../../data/spectra/illuminants/illuminant_D65.csv");

@@ -5,7 +5,8 @@
 //! past the active count are kept at zero.
 
 use super::Spectrum;
-use glam::{Vec3, Vec4};
+use super::cie::{cmf, cmf4};
+use glam::{BVec4A, Vec3, Vec4};
 use std::ops::{Add, AddAssign, Mul, MulAssign};
 
 /// Largest lane count (`IntegratorOptions::validate` allows 1–16).
@@ -32,9 +33,18 @@ pub trait Lanes:
     fn lane(&self, j: usize) -> f32;
     fn max_lane(self) -> f32;
     fn dot(self, o: Self) -> f32;
+    /// The short piecewise-linear table (`xs`, `ys`) at every lane (the first `n`): the same
+    /// values as [`tabulated_short`] lane by lane.
+    fn tabulated_short(self, n: usize, xs: &[f32], ys: &[f32]) -> Self;
 
     /// Three values per lane (e.g. the colour-matching functions), one call of `f` per lane.
     fn from_fn3(n: usize, f: impl FnMut(usize) -> Vec3) -> [Self; 3];
+
+    /// The colour-matching functions (x̄, ȳ, z̄) at every lane: [`cmf`] lane by lane.
+    #[inline(always)]
+    fn cmf(self, n: usize) -> [Self; 3] {
+        Self::from_fn3(n, |j| cmf(self.lane(j)))
+    }
 }
 
 impl Lanes for f32 {
@@ -70,6 +80,10 @@ impl Lanes for f32 {
     #[inline(always)]
     fn dot(self, o: Self) -> f32 {
         self * o
+    }
+    #[inline(always)]
+    fn tabulated_short(self, _: usize, xs: &[f32], ys: &[f32]) -> Self {
+        tabulated_short(xs, ys, self)
     }
 }
 
@@ -120,6 +134,14 @@ impl Lanes for Vec4 {
     #[inline(always)]
     fn dot(self, o: Self) -> f32 {
         Vec4::dot(self, o)
+    }
+    #[inline(always)]
+    fn tabulated_short(self, _: usize, xs: &[f32], ys: &[f32]) -> Self {
+        tabulated_short4(xs, ys, self)
+    }
+    #[inline(always)]
+    fn cmf(self, _: usize) -> [Self; 3] {
+        cmf4(self)
     }
 }
 
@@ -226,6 +248,10 @@ impl Lanes for LaneArr {
     fn dot(self, o: Self) -> f32 {
         self.0.iter().zip(o.0).map(|(a, b)| a * b).sum()
     }
+    #[inline]
+    fn tabulated_short(self, n: usize, xs: &[f32], ys: &[f32]) -> Self {
+        Self::from_fn(n, |j| tabulated_short(xs, ys, self.0[j]))
+    }
 }
 
 impl Spectrum {
@@ -236,9 +262,7 @@ impl Spectrum {
         match self {
             Spectrum::Constant(v) => L::splat_n(n, *v),
             Spectrum::Box { lo, hi, value } => lambda.box_mask(*lo, *hi, *value),
-            Spectrum::Tabulated { xs, ys } if xs.len() <= 16 => {
-                L::from_fn(n, |j| tabulated_short(xs, ys, lambda.lane(j)))
-            }
+            Spectrum::Tabulated { xs, ys } if xs.len() <= 16 => lambda.tabulated_short(n, xs, ys),
             _ => L::from_fn(n, |j| self.eval(lambda.lane(j))),
         }
     }
@@ -264,9 +288,69 @@ fn tabulated_short(xs: &[f32], ys: &[f32], l: f32) -> f32 {
     ys[i - 1] * (1.0 - t) + ys[i] * t
 }
 
+/// [`tabulated_short`] at four wavelengths at once, with the same operations per lane (so the
+/// same bits): each lane's segment is the one the scalar scan stops at (it advances while
+/// `xs[i] <= λ`), selected knot by knot instead of by a branchy scan per lane.
+#[inline(always)]
+fn tabulated_short4(xs: &[f32], ys: &[f32], l: Vec4) -> Vec4 {
+    let n = xs.len();
+    if n == 0 {
+        return Vec4::ZERO;
+    }
+    // `l < xs[0] || l > xs[n - 1]`: false for NaN, as in the scalar test.
+    let outside = l.cmplt(Vec4::splat(xs[0])) | l.cmpgt(Vec4::splat(xs[n - 1]));
+    if n == 1 {
+        return Vec4::select(outside, Vec4::ZERO, Vec4::splat(ys[0]));
+    }
+    let (mut x0, mut x1) = (Vec4::splat(xs[0]), Vec4::splat(xs[1]));
+    let (mut y0, mut y1) = (Vec4::splat(ys[0]), Vec4::splat(ys[1]));
+    // Lanes whose scan is still advancing (at knot i: xs[1..=i] all <= λ).
+    let mut going = BVec4A::splat(true);
+    for i in 1..n - 1 {
+        going &= Vec4::splat(xs[i]).cmple(l);
+        x0 = Vec4::select(going, Vec4::splat(xs[i]), x0);
+        x1 = Vec4::select(going, Vec4::splat(xs[i + 1]), x1);
+        y0 = Vec4::select(going, Vec4::splat(ys[i]), y0);
+        y1 = Vec4::select(going, Vec4::splat(ys[i + 1]), y1);
+    }
+    let t = (l - x0) / (x1 - x0);
+    let v = y0 * (1.0 - t) + y1 * t;
+    Vec4::select(outside, Vec4::ZERO, v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn four_lane_tables_are_the_scalar_tables() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
+        for n in 1..=16 {
+            for _ in 0..200 {
+                let mut x = rng.random_range(300.0..500.0f32);
+                let xs: Vec<f32> = (0..n)
+                    .map(|_| {
+                        x += rng.random_range(0.01..60.0f32);
+                        x
+                    })
+                    .collect();
+                let ys: Vec<f32> = (0..n).map(|_| rng.random::<f32>()).collect();
+                // Knots, the ends, outside and NaN as well as random wavelengths.
+                let mut ls = xs.clone();
+                ls.extend([xs[0] - 1.0, xs[n - 1] + 1.0, f32::NAN, 0.0]);
+                ls.extend((0..40).map(|_| rng.random_range(xs[0] - 5.0..xs[n - 1] + 5.0)));
+                for w in ls.windows(4) {
+                    let l = Vec4::from_slice(w);
+                    let got = l.tabulated_short(4, &xs, &ys);
+                    for j in 0..4 {
+                        let want = tabulated_short(&xs, &ys, l[j]);
+                        assert_eq!(got[j].to_bits(), want.to_bits(), "{xs:?} {}", l[j]);
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn lane_types_agree_with_scalar_evaluation() {

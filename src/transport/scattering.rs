@@ -43,7 +43,7 @@ pub fn henyey_greenstein(mu: f32, g: f32) -> f32 {
 
 impl Scattering {
     /// f(wo, wi) without the cosine.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         match *self {
             Scattering::Diffuse { n } => {
@@ -58,7 +58,7 @@ impl Scattering {
     }
 
     /// Solid-angle pdf of [`Scattering::sample`] choosing `wi` given `wo`.
-    #[inline]
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match *self {
             Scattering::Diffuse { n } => {
@@ -75,7 +75,7 @@ impl Scattering {
 
     /// The projected-solid-angle factor |cos θ| of direction `w` at the vertex: the normal's
     /// cosine on a surface, 1 in a medium.
-    #[inline]
+    #[inline(always)]
     pub fn abs_cos(&self, w: Vec3) -> f32 {
         match *self {
             Scattering::Diffuse { n } => n.dot(w).abs(),

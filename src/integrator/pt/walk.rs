@@ -19,7 +19,7 @@ use crate::integrator::{IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::{Bbrrdf, Material, PathSide, ShiftSampling};
 use crate::medium::Tracking;
 use crate::scene::{Interaction, MediumInterface, NONE, Scene};
-use crate::spectrum::cie::{CameraWavelengths, cmf};
+use crate::spectrum::cie::CameraWavelengths;
 use crate::spectrum::{Lanes, SampledWavelengths};
 use crate::transport::media::{MAX_CROSSINGS, NO_NORMAL};
 use crate::transport::{Endpoint, Scattering, Travel, transmittance, transmittance_lanes, travel};
@@ -68,10 +68,28 @@ impl Walk {
     ) {
         // A scene without media never runs medium code (none exists without the `media` feature).
         if cfg!(feature = "media") && scene.has_media {
-            self.trace_in::<L, true>(scene, x, y, sampler, sink)
+            self.trace_media::<L>(scene, x, y, sampler, sink)
         } else {
-            self.trace_in::<L, false>(scene, x, y, sampler, sink)
+            // The walk draws from a copy of the stream, which does not escape the inlined walk
+            // (the compiler keeps it in registers), and hands the stream back at the end.
+            let mut local = sampler.clone();
+            self.trace_in::<L, false>(scene, x, y, &mut local, sink);
+            *sampler = local;
         }
+    }
+
+    /// [`Walk::trace`] in a scene with media (out of line, so that the walk without media keeps
+    /// its sampler in registers).
+    #[inline(never)]
+    fn trace_media<L: Lanes>(
+        &self,
+        scene: &Scene,
+        x: f32,
+        y: f32,
+        sampler: &mut Sampler,
+        sink: &mut SampleSink,
+    ) {
+        self.trace_in::<L, true>(scene, x, y, sampler, sink)
     }
 
     #[inline(always)]
@@ -98,8 +116,6 @@ impl Walk {
             pdf: wl.pdf,
             pdf_sum,
         };
-        // Colour-matching weights of the camera lanes.
-        let [wx, wy, wz] = L::from_fn3(n, |j| cmf(wl.lambda.lane(j)));
         let mut ray = scene.camera.generate_ray(x, y);
         let mut s = PathState::new(wl.lambda, n, ray.o, scene.camera_medium);
         let mut depth = 0u32;
@@ -184,6 +200,8 @@ impl Walk {
             }
         }
         let r = s.radiance;
+        // Colour-matching weights of the camera lanes.
+        let [wx, wy, wz] = wl.lambda.cmf(n);
         let xyz = Vec3::new(r.dot(wx), r.dot(wy), r.dot(wz)) * (obs.inv_y_integral / pdf_sum);
         sink.add(xyz);
     }
