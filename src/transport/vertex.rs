@@ -40,6 +40,11 @@ pub struct Vertex<P> {
     /// field it grows the bdpt vertex from 52 to 56 bytes, which cost 3.5 % more instructions
     /// per bdpt-forward sample (the connections copy vertices into `FullPath`).
     pub shift: bool,
+    /// bdpt-forward/backward: the vertex's spectral part can shift wavelengths (a fluorescent
+    /// material or medium), set by the sub-path walk, so that the resets and the MIS pdfs of
+    /// every connection skip the material lookup at the others; false in bdpt-allbins. In the
+    /// padding after `shift`, like it.
+    pub fluorescent: bool,
     pub material: u32,
     pub light: u32,
     /// Area pdf of this vertex given its predecessor on its own sub-path.
@@ -115,6 +120,7 @@ impl<P> Vertex<P> {
             n: Vec3::ZERO,
             kind: VertexKind::Medium,
             shift: false,
+            fluorescent: false,
             material: medium,
             light: NONE,
             pdf_fwd,

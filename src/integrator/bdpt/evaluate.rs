@@ -1,9 +1,10 @@
 //! Connecting sub-paths for every strategy (s, t), the measurement contribution f_j (eq. 6.2)
 //! and the weighted throughput w · f / p (eqs. 6.18, 6.19).
 
+use super::cache::{Seg, SpectralCache, SubpathCache};
 use super::mis::{FullPath, ResetMode};
 use super::reset;
-use super::subpath::sample_light_vertex;
+use super::subpath::{Vertex, sample_light_vertex};
 use super::{Bdpt, Scratch};
 use crate::integrator::{SampleSink, Sampler};
 use crate::material::{Bbrrdf, PathSide, ShiftSampling};
@@ -55,43 +56,169 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     f
 }
 
+/// The sub-paths of a sample and their caches, built on first use.
+struct Subpaths<'a> {
+    cam: &'a mut SubpathCache,
+    cam_v: &'a [Vertex],
+    lc: &'a mut SubpathCache,
+    light_v: &'a [Vertex],
+}
+
+/// One interior vertex of [`measurement`]: f_λ (`None`: the vertex has no spectral part), f_dir
+/// and the geometry factor of the segment that leaves it towards the light. False when f is 0
+/// (NaN goes on, as in [`measurement`]).
+#[inline(always)]
+fn vertex_factor(f: &mut f64, f_l: Option<f32>, f_dir: f32, g: f64) -> bool {
+    let Some(f_l) = f_l else { return false };
+    if f_dir == 0.0 {
+        return false;
+    }
+    // eq. 6.2: f_λ · f_dir, then G of the next segment
+    *f *= f_l as f64 * f_dir as f64;
+    *f *= g;
+    *f > 0.0 || f.is_nan()
+}
+
+/// [`measurement`] of strategy (s, t) with the factors its sub-paths fix taken from their caches
+/// (`cache`): the same products in the same order, so the same value to the bit. Only the
+/// connection segment, f_dir at its two ends, the emitter and f_λ at wavelengths not seen
+/// before are evaluated.
+fn measurement_cached(
+    scene: &Scene,
+    path: &FullPath,
+    s: usize,
+    sub: Subpaths,
+    spec: &mut SpectralCache,
+) -> f64 {
+    let Subpaths {
+        cam,
+        cam_v,
+        lc,
+        light_v,
+    } = sub;
+    let k = path.k;
+    let (v, lambda, shift) = (&path.v[..k], &path.lambda[..k], &path.shift[..k]);
+    let e = &v[k - 1];
+    let light = &scene.lights[e.light as usize];
+    let we = (v[k - 2].p - e.p).normalize();
+    let mut f = light.le(lambda[k - 2], e.n, we) as f64;
+    if f <= 0.0 {
+        return 0.0;
+    }
+    // x0 → x1: We(x0 → x1) = 1 / (A cos⁴θ) and the geometry term without a cosine at the pinhole.
+    let mut w = if s >= 2 {
+        cam.camera(scene, cam_v);
+        let (c0, a, b) = cam.head;
+        if c0 <= 0.0 {
+            return 0.0;
+        }
+        f *= a;
+        f /= b;
+        cam.seg(s - 2).w
+    } else {
+        let (w, d2) = v[0].towards(&v[1]);
+        let c0 = w.dot(scene.camera.forward) as f64;
+        if c0 <= 0.0 {
+            return 0.0;
+        }
+        f *= c0 * v[1].abs_cos(w) as f64 / d2 as f64;
+        f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
+        w
+    };
+    // Interior vertices in path order: x1 … x(s−2) inside the camera prefix, x(s−1) and x_s at
+    // the connection, x(s+1) … x(k−2) inside the light suffix (light vertex k − 1 − i).
+    for i in 1..s.saturating_sub(1) {
+        let f_l = spec.f_lambda(scene, &v[i], lambda[i], lambda[i - 1], shift[i]);
+        if !vertex_factor(&mut f, f_l, cam.dir(i), cam.seg(i).g) {
+            return 0.0;
+        }
+    }
+    if s >= 2 && s < k {
+        let (i, x) = (s - 1, &v[s - 1]);
+        let f_l = spec.f_lambda(scene, x, lambda[i], lambda[i - 1], shift[i]);
+        let seg = Seg::new(x, &v[s]);
+        let f_dir = x.scattering(scene).eval(-w, seg.w);
+        if !vertex_factor(&mut f, f_l, f_dir, seg.g) {
+            return 0.0;
+        }
+        w = seg.w;
+    }
+    if s + 2 <= k {
+        lc.light(scene, light_v);
+        let (j, x) = (k - 1 - s, &v[s]);
+        let f_l = spec.f_lambda(scene, x, lambda[s], lambda[s - 1], shift[s]);
+        let seg = lc.seg(j);
+        let f_dir = x.scattering(scene).eval(-w, seg.w);
+        if !vertex_factor(&mut f, f_l, f_dir, seg.g) {
+            return 0.0;
+        }
+    }
+    for i in s + 1..k.saturating_sub(1) {
+        let j = k - 1 - i;
+        let f_l = spec.f_lambda(scene, &v[i], lambda[i], lambda[i - 1], shift[i]);
+        if !vertex_factor(&mut f, f_l, lc.dir(j), lc.seg(j).g) {
+            return 0.0;
+        }
+    }
+    f
+}
+
 /// Fill the directional and wavelength pdfs of the path for MIS (eqs. 6.3, 6.4–6.8).
 fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     let k = path.k;
-    for i in 0..k {
-        let x = path.v[i];
-        if i < s {
-            path.pa_fwd[i] = x.pdf_fwd as f64;
-            path.pa_rev[i] = x.pdf_rev as f64;
-        } else {
-            path.pa_fwd[i] = x.pdf_rev as f64;
-            path.pa_rev[i] = x.pdf_fwd as f64;
-        }
+    let FullPath {
+        v,
+        lambda,
+        shift,
+        pa_fwd,
+        pa_rev,
+        pc,
+        big_pc,
+        pl,
+        big_pl,
+        ..
+    } = path;
+    let (v, lambda, shift) = (&v[..k], &lambda[..k], &shift[..k]);
+    let (pa_fwd, pa_rev) = (&mut pa_fwd[..k], &mut pa_rev[..k]);
+    // the camera prefix keeps its sub-path's directions, the light suffix is turned around
+    for i in 0..s {
+        (pa_fwd[i], pa_rev[i]) = (v[i].pdf_fwd as f64, v[i].pdf_rev as f64);
+    }
+    for i in s..k {
+        (pa_fwd[i], pa_rev[i]) = (v[i].pdf_rev as f64, v[i].pdf_fwd as f64);
     }
     // the pdfs across the connection, from the transport layer (pbrt `Vertex::Pdf`)
-    let v = &path.v;
     if t == 0 {
         // the camera path hit the emitter: light point and emission pdfs at x(k−1)
         let e = &v[k - 1];
-        path.pa_rev[k - 1] = e.pdf_light_origin(scene) as f64;
-        path.pa_rev[k - 2] = e.pdf_emit(scene, &v[k - 2]) as f64;
+        pa_rev[k - 1] = e.pdf_light_origin(scene) as f64;
+        pa_rev[k - 2] = e.pdf_emit(scene, &v[k - 2]) as f64;
     } else {
         // the connection segment x(s−1) ↔ x_s
-        path.pa_fwd[s] = v[s - 1].pdf(scene, s.checked_sub(2).map(|i| &v[i]), &v[s]) as f64;
-        path.pa_rev[s - 1] = v[s].pdf(scene, v.get(s + 1), &v[s - 1]) as f64;
+        pa_fwd[s] = v[s - 1].pdf(scene, s.checked_sub(2).map(|i| &v[i]), &v[s]) as f64;
+        pa_rev[s - 1] = v[s].pdf(scene, v.get(s + 1), &v[s - 1]) as f64;
         // One vertex further: a phase function's pdf depends on the other neighbour, which the
         // connection changed (a diffuse lobe's does not: the stored pdfs stand).
         if s >= 2 && v[s - 1].kind == VertexKind::Medium {
-            path.pa_rev[s - 2] = v[s - 1].pdf(scene, Some(&v[s]), &v[s - 2]) as f64;
+            pa_rev[s - 2] = v[s - 1].pdf(scene, Some(&v[s]), &v[s - 2]) as f64;
         }
         if s + 1 < k && v[s].kind == VertexKind::Medium {
-            path.pa_fwd[s + 1] = v[s].pdf(scene, Some(&v[s - 1]), &v[s + 1]) as f64;
+            pa_fwd[s + 1] = v[s].pdf(scene, Some(&v[s - 1]), &v[s + 1]) as f64;
         }
     }
     // wavelength pdfs of each interior vertex (eqs. 6.6–6.8; media: transport::spectral)
     for i in 1..=k.saturating_sub(2) {
-        let x = path.v[i];
-        with_spectrum!(scene, x, m => wavelength_pdfs(path, i, m, b.shift), else continue);
+        let x = &v[i];
+        let p = if x.fluorescent {
+            let (li, lo, sh) = (lambda[i], lambda[i - 1], shift[i]);
+            with_spectrum!(scene, x, m => wavelength_pdfs(m, li, lo, sh, b.shift), else continue)
+        } else if x.scatters() {
+            // what `wavelength_pdfs` gives a vertex that cannot shift
+            [1.0, 0.0, 1.0, 0.0]
+        } else {
+            continue;
+        };
+        (pc[i], big_pc[i], pl[i], big_pl[i]) = (p[0], p[1], p[2], p[3]);
     }
     path.pc0 = scene
         .observer
@@ -103,28 +230,46 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     ) as f64;
 }
 
-/// The camera- and light-side wavelength pdfs of interior vertex i and its P_c, P_l.
+/// The camera- and light-side wavelength pdfs of an interior vertex whose pair is (λ_i = `li`,
+/// λ(i−1) = `lo`) and its P_c, P_l: [p_c, P_c, p_l, P_l].
 #[inline(always)]
-fn wavelength_pdfs(path: &mut FullPath, i: usize, m: &impl Bbrrdf, ws: ShiftSampling) {
-    let (li, lo, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
+fn wavelength_pdfs(
+    m: &impl Bbrrdf,
+    li: f32,
+    lo: f32,
+    shifted: bool,
+    ws: ShiftSampling,
+) -> [f64; 4] {
     if m.is_fluorescent() {
         let big_pc = m.fluorescence_probability_camera(lo);
         let big_pl = m.fluorescence_probability_light(li);
-        path.big_pc[i] = big_pc as f64;
-        path.big_pl[i] = big_pl as f64;
-        if shifted {
-            path.pc[i] = m.pdf(lo, li, true, PathSide::Camera, ws) as f64;
-            path.pl[i] = m.pdf(li, lo, true, PathSide::Light, ws) as f64;
+        let (pc, pl) = if shifted {
+            (
+                m.pdf(lo, li, true, PathSide::Camera, ws),
+                m.pdf(li, lo, true, PathSide::Light, ws),
+            )
         } else {
             // no fluorescent interaction: 1 − P_c and 1 − P_l, as `Bbrrdf::pdf` gives them
-            path.pc[i] = (1.0 - big_pc) as f64;
-            path.pl[i] = (1.0 - big_pl) as f64;
-        }
+            (1.0 - big_pc, 1.0 - big_pl)
+        };
+        [pc as f64, big_pc as f64, pl as f64, big_pl as f64]
     } else {
-        path.pc[i] = 1.0;
-        path.big_pc[i] = 0.0;
-        path.pl[i] = 1.0;
-        path.big_pl[i] = 0.0;
+        [1.0, 0.0, 1.0, 0.0]
+    }
+}
+
+/// The CIE weight at λ0, kept in `last` for the next connection (most connections of a sample
+/// share λ0).
+#[inline]
+fn xyz_weight(scene: &Scene, lambda0: f32, last: &mut Option<(u32, glam::Vec3)>) -> glam::Vec3 {
+    let bits = lambda0.to_bits();
+    match *last {
+        Some((l, xyz)) if l == bits => xyz,
+        _ => {
+            let xyz = scene.observer.xyz_weight(lambda0);
+            *last = Some((bits, xyz));
+            xyz
+        }
     }
 }
 
@@ -158,21 +303,26 @@ impl Bdpt {
         }
     }
 
-    /// Connect the camera prefix of length `s` with the light suffix of length `t` (t = 1: a
-    /// fresh light vertex), reset wavelengths, and add the weighted contribution.
-    pub(super) fn connect(
+    /// Put the vertices of strategy (s, t) into `scratch.path` (t = 1, s ≥ 2: a fresh light
+    /// vertex, returns true); the camera prefix of the previous connection stays when it has
+    /// the same s.
+    #[inline]
+    fn assemble(
         &self,
         scene: &Scene,
         s: usize,
         t: usize,
         sampler: &mut Sampler,
         scratch: &mut Scratch,
-        sink: &mut SampleSink,
-    ) {
-        let k = s + t;
+    ) -> bool {
         let path = &mut scratch.path;
-        path.reset(k);
-        path.v.extend_from_slice(&scratch.cam[..s]);
+        if scratch.prefix == s {
+            path.reset_keeping(s + t, s);
+        } else {
+            path.reset(s + t);
+            path.v.extend_from_slice(&scratch.cam[..s]);
+            scratch.prefix = s;
+        }
         let fresh = t == 1 && s >= 2;
         if fresh {
             // NEE: a fresh light vertex per camera vertex (Jung 6.3.4)
@@ -189,8 +339,27 @@ impl Bdpt {
             }
             path.v.push(lv);
         } else {
-            path.v.extend(scratch.light[..t].iter().rev());
+            // the light sub-path's first t vertices, in path order
+            let nl = scratch.light.len();
+            path.v.extend_from_slice(&scratch.light_rev[nl - t..]);
         }
+        fresh
+    }
+
+    /// Connect the camera prefix of length `s` with the light suffix of length `t` (t = 1: a
+    /// fresh light vertex), reset wavelengths, and add the weighted contribution.
+    pub(super) fn connect(
+        &self,
+        scene: &Scene,
+        s: usize,
+        t: usize,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        sink: &mut SampleSink,
+    ) {
+        let k = s + t;
+        let fresh = self.assemble(scene, s, t, sampler, scratch);
+        let path = &mut scratch.path;
         if path.v[k - 1].light == NONE {
             return;
         }
@@ -200,11 +369,17 @@ impl Bdpt {
             super::media::gather(scene, path, cam, light, s, fresh);
         }
         self.reset(scene, path, s, t, sampler);
-        let xyz_w = scene.observer.xyz_weight(path.lambda[0]);
+        let xyz_w = xyz_weight(scene, path.lambda[0], &mut scratch.xyz);
         if xyz_w == glam::Vec3::ZERO {
             return;
         }
-        let f = measurement(scene, path);
+        let sub = Subpaths {
+            cam: &mut scratch.cam_cache,
+            cam_v: &scratch.cam,
+            lc: &mut scratch.light_cache,
+            light_v: &scratch.light,
+        };
+        let f = measurement_cached(scene, path, s, sub, &mut scratch.spectral);
         if f <= 0.0 {
             return;
         }
@@ -342,7 +517,25 @@ pub fn connect_for_test(
         super::media::gather(scene, &mut path, cam, light, s, false);
     }
     b.reset(scene, &mut path, s, t, sampler);
-    if measurement(scene, &path) <= 0.0 {
+    let f = measurement(scene, &path);
+    // the cached evaluation is the same to the bit, from the walks' cache and from its own
+    let (mut cam, mut lc) = (scratch.cam_cache.clone(), scratch.light_cache.clone());
+    let mut spec = scratch.spectral.clone();
+    for _ in 0..2 {
+        let sub = Subpaths {
+            cam: &mut cam,
+            cam_v: &scratch.cam,
+            lc: &mut lc,
+            light_v: &scratch.light,
+        };
+        let cached = measurement_cached(scene, &path, s, sub, &mut spec);
+        assert_eq!(
+            f.to_bits(),
+            cached.to_bits(),
+            "cached measurement, s = {s}, t = {t}"
+        );
+    }
+    if f <= 0.0 {
         return None;
     }
     if scene.has_media && t >= 1 {

@@ -89,8 +89,29 @@ impl FullPath {
 
     /// Make room for a path of `k` vertices (no allocation once the capacity is reached).
     pub fn reset(&mut self, k: usize) {
+        self.reset_keeping(k, 0);
+    }
+
+    /// [`Self::reset`] that keeps the first `keep` vertices.
+    pub(crate) fn reset_keeping(&mut self, k: usize, keep: usize) {
         self.k = k;
-        self.v.clear();
+        self.v.truncate(keep);
+        if self.lambda.len() >= k
+            && self.shift.len() >= k
+            && [
+                &self.pa_fwd,
+                &self.pa_rev,
+                &self.pc,
+                &self.big_pc,
+                &self.pl,
+                &self.big_pl,
+            ]
+            .iter()
+            .chain([&self.dist_fwd, &self.dist_rev].iter())
+            .all(|a| a.len() >= k)
+        {
+            return;
+        }
         for a in [&mut self.lambda] {
             if a.len() < k {
                 a.resize(k, 0.0);

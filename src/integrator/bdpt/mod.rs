@@ -14,6 +14,7 @@
 //!   wavelength bin at once.
 
 pub mod allbins;
+pub(crate) mod cache;
 pub mod evaluate;
 pub mod geometric;
 pub mod media;
@@ -56,6 +57,17 @@ pub struct Scratch {
     /// The sub-paths' segments (media scenes).
     pub(crate) cam_log: SegmentLog,
     pub(crate) light_log: SegmentLog,
+    /// The measurement factors each sub-path fixes (`cache`).
+    pub(crate) cam_cache: cache::SubpathCache,
+    pub(crate) light_cache: cache::SubpathCache,
+    /// f_λ of the materials at the wavelengths last seen (the walks and the connections).
+    pub(crate) spectral: cache::SpectralCache,
+    /// The light sub-path in path order (reversed), whose tails the connections copy.
+    pub(crate) light_rev: Vec<Vertex>,
+    /// The CIE weight at the last λ0 (its bits).
+    pub(crate) xyz: Option<(u32, glam::Vec3)>,
+    /// `path.v` starts with the camera prefix of this many vertices (0: none).
+    pub(crate) prefix: usize,
 }
 
 impl Bdpt {
@@ -130,6 +142,7 @@ impl Bdpt {
             stats,
             &mut scratch.cam,
             media.then_some(&mut scratch.cam_log),
+            &mut scratch.spectral,
         );
         light_subpath(
             scene,
@@ -142,7 +155,13 @@ impl Bdpt {
             stats,
             &mut scratch.light,
             media.then_some(&mut scratch.light_log),
+            &mut scratch.spectral,
         );
+        scratch.cam_cache.invalidate();
+        scratch.light_cache.invalidate();
+        scratch.prefix = 0;
+        scratch.light_rev.clear();
+        scratch.light_rev.extend(scratch.light.iter().rev());
     }
 }
 
@@ -171,7 +190,7 @@ impl Scratch {
 impl Integrator for Bdpt {
     type Scratch = Scratch;
 
-    fn scratch(&self, _: &Scene) -> Scratch {
+    fn scratch(&self, scene: &Scene) -> Scratch {
         let n = self.max_depth as usize + 2;
         Scratch {
             cam: Vec::with_capacity(n),
@@ -179,6 +198,12 @@ impl Integrator for Bdpt {
             path: FullPath::with_capacity(2 * n),
             cam_log: SegmentLog::default(),
             light_log: SegmentLog::default(),
+            cam_cache: cache::SubpathCache::default(),
+            light_cache: cache::SubpathCache::default(),
+            spectral: cache::SpectralCache::new(scene),
+            light_rev: Vec::with_capacity(n),
+            xyz: None,
+            prefix: 0,
         }
     }
 

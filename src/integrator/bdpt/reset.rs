@@ -7,6 +7,7 @@
 //! x(i+1) → xi and `path.shift[i]` whether xi changes the wavelength (λi ≠ λ(i−1)).
 
 use super::mis::FullPath;
+use super::subpath::Vertex;
 use crate::integrator::Sampler;
 use crate::material::{Bbrrdf, PathSide};
 use crate::scene::Scene;
@@ -17,6 +18,16 @@ use crate::transport::spectral::with_spectrum;
 fn fluorescence(m: &impl Bbrrdf, l: f32, side: PathSide) -> Option<f32> {
     m.is_fluorescent()
         .then(|| m.fluorescence_probability(l, side))
+}
+
+/// [`fluorescence`] of interior vertex `v` of a path; the sub-path walk flagged the vertices
+/// that can shift, so the others need no material lookup.
+#[inline(always)]
+fn vertex_fluorescence(scene: &Scene, v: &Vertex, l: f32, side: PathSide) -> Option<f32> {
+    if !v.fluorescent {
+        return None;
+    }
+    with_spectrum!(scene, v, m => fluorescence(m, l, side), else None)
 }
 
 /// Wavelengths of the camera vertices x0 … x(s−1) as sampled (λ0 … λ(s−1)).
@@ -60,8 +71,7 @@ pub fn forward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mut
     copy_camera(path, s);
     for i in s..=k - 2 {
         let cur = path.lambda[i - 1];
-        let v = path.v[i];
-        let p = with_spectrum!(scene, v, m => fluorescence(m, cur, PathSide::Camera), else None);
+        let p = vertex_fluorescence(scene, &path.v[i], cur, PathSide::Camera);
         if let Some(p) = p
             && sampler.next() < p
         {
@@ -81,8 +91,7 @@ pub fn forward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mut
 pub fn backward_reset(scene: &Scene, path: &mut FullPath, s: usize, sampler: &mut Sampler) {
     for i in (1..s).rev() {
         let cur = path.lambda[i];
-        let v = path.v[i];
-        let p = with_spectrum!(scene, v, m => fluorescence(m, cur, PathSide::Light), else None);
+        let p = vertex_fluorescence(scene, &path.v[i], cur, PathSide::Light);
         if let Some(p) = p
             && sampler.next() < p
         {

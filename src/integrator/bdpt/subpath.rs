@@ -3,6 +3,7 @@
 //! vertex stores the wavelength on its light side (`lambda_in`) and on its camera side
 //! (`lambda_out`); whether the vertex shifted the wavelength is the core vertex's `shift`.
 
+use super::cache::SpectralCache;
 use super::geometric::{self, SegmentLog, Step, Walker};
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
@@ -34,17 +35,18 @@ fn scatter(
     v: &mut Vertex,
     m: &impl Bbrrdf,
     l: f32,
-    side: PathSide,
-    shift: ShiftSampling,
+    (side, shift): (PathSide, ShiftSampling),
     sampler: &mut Sampler,
+    spectral: &mut SpectralCache,
 ) -> f32 {
     v.data = Lambdas {
         lambda_in: l,
         lambda_out: l,
     };
     if !m.is_fluorescent() {
-        return m.diagonal(l);
+        return spectral.diagonal(v, m, l);
     }
+    v.fluorescent = true;
     // decide with P, then sample the absorption (camera) or emission (light) side
     let s = m.sample(l, sampler.next2(), side, shift);
     match side {
@@ -65,6 +67,8 @@ struct SpectralWalker<'a, const LIGHT: bool> {
     beta: f32,
     /// Free-flight weight of the segment being traced.
     w: f32,
+    /// The diagonals of the materials at the wavelengths last seen (`super::cache`).
+    spectral: &'a mut SpectralCache,
 }
 
 impl<const LIGHT: bool> SpectralWalker<'_, LIGHT> {
@@ -133,8 +137,8 @@ impl<const LIGHT: bool> Walker<Lambdas> for SpectralWalker<'_, LIGHT> {
             // Camera paths keep an emitter they hit (t = 0); light paths cannot use it.
             return if LIGHT { Step::Discard } else { Step::Stop };
         }
-        let (side, shift) = (Self::SIDE, self.shift);
-        let w = with_spectrum!(self.scene, v, m => scatter(v, m, l, side, shift, sampler),
+        let (how, spectral) = ((Self::SIDE, self.shift), &mut *self.spectral);
+        let w = with_spectrum!(self.scene, v, m => scatter(v, m, l, how, sampler, spectral),
             else return Step::Discard);
         self.beta *= w;
         if self.stop_on_zero && !(self.beta > 0.0) {
@@ -169,6 +173,7 @@ pub fn camera_subpath(
     stats: &mut Stats,
     out: &mut Vec<Vertex>,
     log: Option<&mut SegmentLog>,
+    spectral: &mut SpectralCache,
 ) {
     out.clear();
     let (mut x0, ray, pdf_dir) = Vertex::camera(scene, x, y);
@@ -182,6 +187,7 @@ pub fn camera_subpath(
         stop_on_zero,
         beta: 1.0,
         w: 1.0,
+        spectral,
     };
     let mut rays = 0u64;
     let mut log = log;
@@ -219,6 +225,7 @@ pub fn light_subpath(
     stats: &mut Stats,
     out: &mut Vec<Vertex>,
     log: Option<&mut SegmentLog>,
+    spectral: &mut SpectralCache,
 ) {
     out.clear();
     let mut log = log;
@@ -250,6 +257,7 @@ pub fn light_subpath(
         stop_on_zero,
         beta,
         w: 1.0,
+        spectral,
     };
     let mut rays = 0u64;
     geometric::random_walk(

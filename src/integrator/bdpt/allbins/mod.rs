@@ -53,6 +53,7 @@ fn camera_vertex(scene: &Scene) -> Vertex {
         pdf_fwd: 1.0,
         pdf_rev: 0.0,
         shift: false,
+        fluorescent: false,
         data: Throughput { beta: 1.0 },
     }
 }
