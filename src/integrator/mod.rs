@@ -249,13 +249,41 @@ fn splitmix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Light-tracing splats of one row of pixel samples, by bands of [`Splats::BAND_ROWS`] film rows,
+/// so that the render loop adds the bands to the film in parallel while every pixel still
+/// receives its splats in the order they were made.
+pub struct Splats {
+    pub bands: Vec<Vec<(u32, Vec3)>>,
+    band_pixels: u32,
+}
+
+impl Splats {
+    pub const BAND_ROWS: u32 = 16;
+
+    /// No splats yet, for a film `width` × `height`.
+    pub fn new(width: u32, height: u32) -> Self {
+        let band_pixels = Self::BAND_ROWS * width;
+        let bands = (width * height).div_ceil(band_pixels.max(1)) as usize;
+        Splats {
+            bands: (0..bands).map(|_| Vec::new()).collect(),
+            band_pixels,
+        }
+    }
+
+    /// Add `xyz` at pixel index `pixel`.
+    #[inline]
+    pub fn push(&mut self, pixel: u32, xyz: Vec3) {
+        self.bands[(pixel / self.band_pixels) as usize].push((pixel, xyz));
+    }
+}
+
 /// Receives the contributions of one pixel sample. Non-finite values are counted and dropped.
 pub struct SampleSink<'a> {
     /// XYZ accumulated for the sample's own pixel.
     pub value: Vec3,
     pub width: u32,
     pub height: u32,
-    pub splats: &'a mut Vec<(u32, Vec3)>,
+    pub splats: &'a mut Splats,
     pub aux: &'a mut Vec<(u16, u32, Vec3)>,
     pub stats: &'a mut Stats,
     /// The pixel this sample belongs to (index), for auxiliary layers.
@@ -284,7 +312,7 @@ impl SampleSink<'_> {
             return false;
         }
         if x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32 {
-            self.splats.push((y as u32 * self.width + x as u32, xyz));
+            self.splats.push(y as u32 * self.width + x as u32, xyz);
             true
         } else {
             false

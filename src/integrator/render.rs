@@ -1,7 +1,7 @@
 //! The render loop: passes of one sample per pixel, rows in parallel (rayon), accumulated in a
 //! fixed order so the image is the same for a given seed whatever the thread count.
 
-use super::{Integrator, IntegratorKind, IntegratorOptions, SampleSink, Sampler, Stats};
+use super::{Integrator, IntegratorKind, IntegratorOptions, SampleSink, Sampler, Splats, Stats};
 use crate::film::Film;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -145,14 +145,15 @@ pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> R
 
 /// What a row leaves besides its pixel values, which go straight into the film.
 struct RowResult {
-    splats: Vec<(u32, Vec3)>,
+    splats: Splats,
     aux: Vec<(u16, u32, Vec3)>,
     stats: Stats,
 }
 
 /// One pass: sample `s` of every pixel, rows in parallel. Each row adds its values to its own
-/// film row; splats and strategy-image values are added afterwards in row order, so every sum
-/// sees the same additions in the same order whatever the thread count.
+/// film row; then the splats, by bands of film rows in parallel, and the strategy-image values
+/// are added in row order, so every sum sees the same additions in the same order whatever the
+/// thread count.
 fn pass<I: Integrator>(
     scene: &Scene,
     integrator: &I,
@@ -171,7 +172,7 @@ fn pass<I: Integrator>(
             |scratch, (y, film_row)| {
                 let y = y as u32;
                 let mut r = RowResult {
-                    splats: Vec::new(),
+                    splats: Splats::new(w, h),
                     aux: Vec::new(),
                     stats: Stats::default(),
                 };
@@ -197,10 +198,24 @@ fn pass<I: Integrator>(
             },
         )
         .collect();
+    let band = (Splats::BAND_ROWS * w) as usize;
+    if rows
+        .iter()
+        .any(|r| r.splats.bands.iter().any(|b| !b.is_empty()))
+    {
+        film.splat
+            .par_chunks_mut(band)
+            .enumerate()
+            .for_each(|(b, splat)| {
+                let base = b * band;
+                for r in &rows {
+                    for (p, v) in &r.splats.bands[b] {
+                        Film::add(&mut splat[*p as usize - base], *v);
+                    }
+                }
+            });
+    }
     for r in &rows {
-        for (p, v) in &r.splats {
-            Film::add(&mut film.splat[*p as usize], *v);
-        }
         for (l, p, v) in &r.aux {
             Film::add(&mut film.aux[*l as usize][*p as usize], *v);
         }
