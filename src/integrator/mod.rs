@@ -270,6 +270,11 @@ impl Splats {
         }
     }
 
+    /// No splats, keeping the bands' capacity.
+    pub fn clear(&mut self) {
+        self.bands.iter_mut().for_each(Vec::clear);
+    }
+
     /// Add `xyz` at pixel index `pixel`.
     #[inline]
     pub fn push(&mut self, pixel: u32, xyz: Vec3) {

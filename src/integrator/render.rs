@@ -143,11 +143,34 @@ pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> R
     }
 }
 
-/// What a row leaves besides its pixel values, which go straight into the film.
+/// What a row leaves besides its pixel values, which go straight into the film; kept from pass
+/// to pass, so that a pass allocates nothing once the buffers have grown.
 struct RowResult {
     splats: Splats,
     aux: Vec<(u16, u32, Vec3)>,
     stats: Stats,
+}
+
+impl RowResult {
+    fn new(width: u32, height: u32) -> Self {
+        RowResult {
+            splats: Splats::new(width, height),
+            aux: Vec::new(),
+            stats: Stats::default(),
+        }
+    }
+
+    /// Empty, keeping the buffers' capacity.
+    fn clear(&mut self) {
+        self.splats.clear();
+        self.aux.clear();
+        let mut by_length = std::mem::take(&mut self.stats.contributing_by_length);
+        by_length.clear();
+        self.stats = Stats {
+            contributing_by_length: by_length,
+            ..Stats::default()
+        };
+    }
 }
 
 /// One pass: sample `s` of every pixel, rows in parallel. Each row adds its values to its own
@@ -160,22 +183,19 @@ fn pass<I: Integrator>(
     seed: u64,
     s: u32,
     film: &mut Film,
+    rows: &mut [RowResult],
     stats: &mut Stats,
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let rows: Vec<RowResult> = film
-        .sum
+    film.sum
         .par_chunks_mut(w as usize)
+        .zip(rows.par_iter_mut())
         .enumerate()
-        .map_init(
+        .for_each_init(
             || integrator.scratch(scene),
-            |scratch, (y, film_row)| {
+            |scratch, (y, (film_row, r))| {
                 let y = y as u32;
-                let mut r = RowResult {
-                    splats: Splats::new(w, h),
-                    aux: Vec::new(),
-                    stats: Stats::default(),
-                };
+                r.clear();
                 for (x, sum) in (0..w).zip(film_row.iter_mut()) {
                     let pixel = y * w + x;
                     let mut sampler = Sampler::new(seed, pixel as u64, s as u64);
@@ -194,10 +214,8 @@ fn pass<I: Integrator>(
                     integrator.sample(scene, fx, fy, &mut sampler, scratch, &mut sink);
                     Film::add(sum, sink.value);
                 }
-                r
             },
-        )
-        .collect();
+        );
     let band = (Splats::BAND_ROWS * w) as usize;
     if rows
         .iter()
@@ -208,14 +226,14 @@ fn pass<I: Integrator>(
             .enumerate()
             .for_each(|(b, splat)| {
                 let base = b * band;
-                for r in &rows {
+                for r in rows.iter() {
                     for (p, v) in &r.splats.bands[b] {
                         Film::add(&mut splat[*p as usize - base], *v);
                     }
                 }
             });
     }
-    for r in &rows {
+    for r in rows.iter() {
         for (l, p, v) in &r.aux {
             Film::add(&mut film.aux[*l as usize][*p as usize], *v);
         }
@@ -232,6 +250,7 @@ pub fn run<I: Integrator>(
 ) -> Result<RenderOutput, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h, integrator.aux_layers());
+    let mut rows: Vec<RowResult> = (0..h).map(|_| RowResult::new(w, h)).collect();
     let mut stats = Stats::default();
     let start = Instant::now();
     let bar = if settings.progress && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
@@ -260,7 +279,15 @@ pub fn run<I: Integrator>(
             )
         })?;
     for s in settings.first_sample..end {
-        pass(scene, integrator, settings.seed, s, &mut film, &mut stats);
+        pass(
+            scene,
+            integrator,
+            settings.seed,
+            s,
+            &mut film,
+            &mut rows,
+            &mut stats,
+        );
         film.spp += 1;
         let secs = start.elapsed().as_secs_f64();
         if let Some(b) = &bar {
