@@ -2,7 +2,8 @@
 """Mitsuba 3 reference renders of the stokes Cornell box (plain or with a participating medium).
 
 The scene is built in memory from the shared geometry description
-(``shared/bench/cornell_box_geometry.json``): the wall/box/light quads as
+(``scripts/mitsuba/cornell_box_geometry.json``, the Mitsuba 3 benchmark's description that
+scenes/cornell-box.json was rebuilt from): the wall/box/light quads as
 triangle meshes (triangulated (c0,c1,c2), (c0,c2,c3)), two-sided Lambertian
 materials with piecewise-linear ``irregular`` reflectance spectra, a one-sided
 ``area`` light with ``uniform`` radiance 10 on the light quad (which faces -y),
@@ -49,8 +50,7 @@ import sys
 import time
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-DEFAULT_GEOMETRY = os.path.normpath(
-    os.path.join(REPO_ROOT, "..", "shared", "bench", "cornell_box_geometry.json"))
+DEFAULT_GEOMETRY = os.path.join(REPO_ROOT, "scripts", "mitsuba", "cornell_box_geometry.json")
 
 
 def parse_args(argv):
