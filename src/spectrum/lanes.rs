@@ -268,24 +268,17 @@ impl Spectrum {
     }
 }
 
-/// `Spectrum::Tabulated` evaluation for short tables: an inlined linear scan, same result as
-/// `Spectrum::eval` (first knot above λ, clamped to 1..n−1).
+/// `Spectrum::Tabulated` evaluation for short tables: the knot found by an inlined linear scan,
+/// the same knot as `Spectrum::eval`'s (first knot above λ, clamped to 1..n−1).
 #[inline(always)]
 fn tabulated_short(xs: &[f32], ys: &[f32], l: f32) -> f32 {
-    let n = xs.len();
-    if n == 0 || l < xs[0] || l > xs[n - 1] {
-        return 0.0;
-    }
-    if n == 1 {
-        return ys[0];
-    }
-    let mut i = 1;
-    while i < n - 1 && xs[i] <= l {
-        i += 1;
-    }
-    let (x0, x1) = (xs[i - 1], xs[i]);
-    let t = (l - x0) / (x1 - x0);
-    ys[i - 1] * (1.0 - t) + ys[i] * t
+    super::tabulated(xs, ys, l, |xs, l| {
+        let mut i = 1;
+        while i < xs.len() - 1 && xs[i] <= l {
+            i += 1;
+        }
+        i
+    })
 }
 
 /// [`tabulated_short`] at four wavelengths at once, with the same operations per lane (so the

@@ -115,19 +115,7 @@ impl Spectrum {
                 let x = (l - center) / sigma;
                 peak * (-0.5 * x * x).exp()
             }
-            Spectrum::Tabulated { xs, ys } => {
-                let n = xs.len();
-                if n == 0 || l < xs[0] || l > xs[n - 1] {
-                    return 0.0;
-                }
-                if n == 1 {
-                    return ys[0];
-                }
-                let i = knot_above(xs, l);
-                let (x0, x1) = (xs[i - 1], xs[i]);
-                let t = (l - x0) / (x1 - x0);
-                ys[i - 1] * (1.0 - t) + ys[i] * t
-            }
+            Spectrum::Tabulated { xs, ys } => tabulated(xs, ys, l, knot_above),
             Spectrum::Binned { lo, width, values } => {
                 let f = (l - lo) / width;
                 if f < 0.0 {
@@ -351,6 +339,28 @@ fn erfc_abs(z: f64) -> f64 {
                             + t * (-1.13520398
                                 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
         .exp()
+}
+
+/// The piecewise-linear table (`xs`, `ys`) at `l`, 0 outside it; `knot` finds the first knot
+/// above `l` (clamped to 1..n−1), so that every way of finding it gives the same value.
+#[inline(always)]
+pub(crate) fn tabulated(
+    xs: &[f32],
+    ys: &[f32],
+    l: f32,
+    knot: impl FnOnce(&[f32], f32) -> usize,
+) -> f32 {
+    let n = xs.len();
+    if n == 0 || l < xs[0] || l > xs[n - 1] {
+        return 0.0;
+    }
+    if n == 1 {
+        return ys[0];
+    }
+    let i = knot(xs, l);
+    let (x0, x1) = (xs[i - 1], xs[i]);
+    let t = (l - x0) / (x1 - x0);
+    ys[i - 1] * (1.0 - t) + ys[i] * t
 }
 
 /// The first knot above `l` (clamped to 1..n−1) of a table with n ≥ 2 knots and

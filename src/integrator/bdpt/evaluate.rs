@@ -213,8 +213,7 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
             let (li, lo, sh) = (lambda[i], lambda[i - 1], shift[i]);
             with_spectrum!(scene, x, m => wavelength_pdfs(m, li, lo, sh, b.shift), else continue)
         } else if x.scatters() {
-            // what `wavelength_pdfs` gives a vertex that cannot shift
-            [1.0, 0.0, 1.0, 0.0]
+            NO_SHIFT
         } else {
             continue;
         };
@@ -229,6 +228,9 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
         b.light_wavelengths,
     ) as f64;
 }
+
+/// [`wavelength_pdfs`] of a vertex that cannot shift: p_c = p_l = 1, P_c = P_l = 0.
+const NO_SHIFT: [f64; 4] = [1.0, 0.0, 1.0, 0.0];
 
 /// The camera- and light-side wavelength pdfs of an interior vertex whose pair is (λ_i = `li`,
 /// λ(i−1) = `lo`) and its P_c, P_l: [p_c, P_c, p_l, P_l].
@@ -254,7 +256,7 @@ fn wavelength_pdfs(
         };
         [pc as f64, big_pc as f64, pl as f64, big_pl as f64]
     } else {
-        [1.0, 0.0, 1.0, 0.0]
+        NO_SHIFT
     }
 }
 
