@@ -6,7 +6,7 @@ use super::mis::{FullPath, ResetMode};
 use super::reset;
 use super::subpath::{Vertex, sample_light_vertex};
 use super::{Bdpt, Scratch};
-use crate::integrator::{SampleSink, Sampler};
+use crate::integrator::{SampleSink, Sampler, Stats};
 use crate::material::{Bbrrdf, PathSide, ShiftSampling};
 use crate::scene::{NONE, Scene};
 use crate::transport::spectral::with_spectrum;
@@ -260,10 +260,17 @@ fn wavelength_pdfs(
     }
 }
 
+/// A connection's contribution: XYZ, and the film position for light tracing.
+pub type Contribution = (glam::Vec3, Option<(f32, f32)>);
+
 /// The CIE weight at λ0, kept in `last` for the next connection (most connections of a sample
 /// share λ0).
 #[inline]
-fn xyz_weight(scene: &Scene, lambda0: f32, last: &mut Option<(u32, glam::Vec3)>) -> glam::Vec3 {
+pub(super) fn xyz_weight(
+    scene: &Scene,
+    lambda0: f32,
+    last: &mut Option<(u32, glam::Vec3)>,
+) -> glam::Vec3 {
     let bits = lambda0.to_bits();
     match *last {
         Some((l, xyz)) if l == bits => xyz,
@@ -349,7 +356,8 @@ impl Bdpt {
     }
 
     /// Connect the camera prefix of length `s` with the light suffix of length `t` (t = 1: a
-    /// fresh light vertex), reset wavelengths, and add the weighted contribution.
+    /// fresh light vertex) and add the weighted contribution: plain paths (`plain`) without
+    /// assembling them, the others with the wavelength reset of the full path.
     pub(super) fn connect(
         &self,
         scene: &Scene,
@@ -359,11 +367,32 @@ impl Bdpt {
         scratch: &mut Scratch,
         sink: &mut SampleSink,
     ) {
+        let c = if !scene.has_media && scratch.plain.covers(s, t) {
+            self.connect_plain(scene, s, t, sampler, scratch, sink.stats)
+        } else {
+            self.connect_full(scene, s, t, sampler, scratch, sink.stats)
+        };
+        if let Some((xyz, splat)) = c {
+            self.deliver(s, t, xyz, splat, sink);
+        }
+    }
+
+    /// Connect strategy (s, t) on the full path: reset wavelengths (Jung 6.3), then the
+    /// weighted contribution w · f / p (eqs. 6.18, 6.19) in XYZ.
+    pub(super) fn connect_full(
+        &self,
+        scene: &Scene,
+        s: usize,
+        t: usize,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        stats: &mut Stats,
+    ) -> Option<Contribution> {
         let k = s + t;
         let fresh = self.assemble(scene, s, t, sampler, scratch);
         let path = &mut scratch.path;
         if path.v[k - 1].light == NONE {
-            return;
+            return None;
         }
         let media = scene.has_media;
         if media {
@@ -373,7 +402,7 @@ impl Bdpt {
         self.reset(scene, path, s, t, sampler);
         let xyz_w = xyz_weight(scene, path.lambda[0], &mut scratch.xyz);
         if xyz_w == glam::Vec3::ZERO {
-            return;
+            return None;
         }
         let sub = Subpaths {
             cam: &mut scratch.cam_cache,
@@ -383,7 +412,7 @@ impl Bdpt {
         };
         let f = measurement_cached(scene, path, s, sub, &mut scratch.spectral);
         if f <= 0.0 {
-            return;
+            return None;
         }
         // splat position for light tracing
         let mut splat = None;
@@ -391,18 +420,16 @@ impl Bdpt {
             let d = path.v[1].p - path.v[0].p;
             match scene.camera.project(d.normalize()) {
                 Some((px, py, _)) => splat = Some((px, py)),
-                None => return,
+                None => return None,
             }
         }
         // transmittance of the connecting segment (shadow rays start on the surface side)
         let mut f = f;
         if t >= 1 {
-            let rays = &mut sink.stats.rays;
+            let rays = &mut stats.rays;
             if media {
                 let mode = self.tracking;
-                let Some(tr) = super::media::connection(scene, path, s, mode, rays, sampler) else {
-                    return;
-                };
+                let tr = super::media::connection(scene, path, s, mode, rays, sampler)?;
                 f *= tr as f64;
             } else {
                 let (a, b) = (path.v[s - 1].endpoint(), path.v[s].endpoint());
@@ -412,7 +439,7 @@ impl Bdpt {
                     transmittance(scene, a, b, rays)
                 };
                 if tr.is_zero() {
-                    return;
+                    return None;
                 }
                 f *= tr.at(path.lambda[s - 1]) as f64;
             }
@@ -423,8 +450,8 @@ impl Bdpt {
         // contribution, not a path the strategy cannot make: counted (docs/bdpt.md).
         let p = path.strategy_pdf(s, self.mode);
         if !(p > 0.0 && p.is_finite()) {
-            sink.stats.dropped_strategy_pdfs += (f != 0.0) as u64;
-            return;
+            stats.dropped_strategy_pdfs += (f != 0.0) as u64;
+            return None;
         }
         // Media: the sampled free flights' weights, and their pdfs in the MIS weights.
         let p_mis = if media {
@@ -444,18 +471,18 @@ impl Bdpt {
             // the reset moved a segment to a wavelength its sub-path could not collide at; the
             // weight is then 0 (the limit of eq. 6.15), and a loss only if no strategy is left.
             let lost = p_mis != 0.0 || !path.any_strategy(self.mode);
-            sink.stats.dropped_strategy_pdfs += (lost && f != 0.0) as u64;
-            return;
+            stats.dropped_strategy_pdfs += (lost && f != 0.0) as u64;
+            return None;
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
         let c = (w * f / p) as f32;
         if c.is_nan() || c <= 0.0 || !c.is_finite() {
             if !c.is_finite() {
-                sink.stats.nan_inf_rejected += 1;
+                stats.nan_inf_rejected += 1;
             }
-            return;
+            return None;
         }
-        self.deliver(s, t, xyz_w * c, splat, sink);
+        Some((xyz_w * c, splat))
     }
 
     /// Add the contribution `xyz` of strategy (s, t) to the pixel, or splat it at `splat` (light

@@ -10,6 +10,7 @@
 //! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
 //! - `mis`: the full pdf p_A · p_Λ of every strategy for one path, and the MIS weights.
 //! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19).
+//! - `plain`: the same for paths that cannot shift the wavelength, without assembling them.
 //! - `allbins`: `bdpt-allbins` (Jung 6.5), the same geometric sub-paths evaluated for every
 //!   wavelength bin at once.
 
@@ -19,6 +20,7 @@ pub mod evaluate;
 pub mod geometric;
 pub mod media;
 pub mod mis;
+pub(crate) mod plain;
 pub mod reset;
 pub mod subpath;
 
@@ -26,6 +28,7 @@ pub use crate::transport::VertexKind;
 pub use evaluate::{connect_for_test, strategy_layer};
 pub use geometric::SegmentLog;
 pub use mis::{FullPath, ResetMode};
+pub use plain::{PlainTrial, plain_for_test};
 pub use subpath::{Vertex, camera_subpath, light_subpath};
 
 use crate::integrator::{
@@ -68,6 +71,8 @@ pub struct Scratch {
     pub(crate) xyz: Option<(u32, glam::Vec3)>,
     /// `path.v` starts with the camera prefix of this many vertices (0: none).
     pub(crate) prefix: usize,
+    /// The products and pdfs of the plain connections (`plain`).
+    pub(crate) plain: plain::PlainCache,
 }
 
 impl Bdpt {
@@ -162,6 +167,7 @@ impl Bdpt {
         scratch.prefix = 0;
         scratch.light_rev.clear();
         scratch.light_rev.extend(scratch.light.iter().rev());
+        scratch.plain.reset(&scratch.cam, &scratch.light);
     }
 }
 
@@ -204,6 +210,7 @@ impl Integrator for Bdpt {
             light_rev: Vec::with_capacity(n),
             xyz: None,
             prefix: 0,
+            plain: plain::PlainCache::default(),
         }
     }
 

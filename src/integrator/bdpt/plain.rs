@@ -1,0 +1,517 @@
+//! Connections of plain paths: no vertex of the connected path can shift the wavelength (no
+//! fluorescent material on it) and the scene has no media. Every vertex then sees one wavelength
+//! λ*, the resets draw no numbers, and every interior vertex has the wavelength pdfs of a vertex
+//! that cannot shift, so Jung's estimator (eqs. 6.2, 6.14, 6.15) simplifies:
+//!
+//! - the measurement f_j is a camera prefix C(s) (pinhole importance and the factors of x1 …
+//!   x(s−2)) times the connection's two vertices times a light suffix L(t) (emission and the
+//!   factors of y1 … y(t−2)); C and L are products kept per sub-path at λ* and extended as s
+//!   and t grow, so a connection costs O(1) instead of O(k);
+//! - p_Λ(ŝ) is p_c(λ*) for the camera strategies of the forward reset (eqs. 6.9/6.10 with no
+//!   shift) and p_l(λ*) for light tracing and every strategy of the backward reset (eqs.
+//!   6.11/6.13), and the MIS weight walks the ratios p(ŝ)/p(s) over the sub-paths' stored area
+//!   pdfs from the connection outwards (pbrt's `MISWeight`), so no full path is assembled.
+//!
+//! The same estimator as `evaluate`, with the same random numbers; equal up to rounding, since
+//! the products are taken in another order (tests/bdpt_plain.rs compares them connection by
+//! connection).
+
+use super::cache::{Seg, SpectralCache, SubpathCache};
+use super::evaluate::{Contribution, xyz_weight};
+use super::mis::ResetMode;
+use super::subpath::{Vertex, sample_light_vertex};
+use super::{Bdpt, Scratch};
+use crate::integrator::{MisHeuristic, Sampler, Stats};
+use crate::scene::Scene;
+use crate::transport::transmittance;
+use glam::Vec3;
+
+/// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
+/// (camera) or L(n + 2) (light).
+#[derive(Clone, Debug, Default)]
+struct Products {
+    key: Option<u32>,
+    f: Vec<f64>,
+}
+
+impl Products {
+    /// Entry `n` at wavelength `l`: `first` is entry 0, `factor(i)` the factor of sub-path vertex
+    /// i (entry i = entry i − 1 · factor(i)); a product that reached 0 stays 0, as the direct
+    /// measurement stops there.
+    #[inline]
+    fn get(
+        &mut self,
+        l: f32,
+        n: usize,
+        first: impl FnOnce() -> f64,
+        mut factor: impl FnMut(usize) -> f64,
+    ) -> f64 {
+        if self.key == Some(l.to_bits()) && n < self.f.len() {
+            return self.f[n];
+        }
+        if self.key != Some(l.to_bits()) {
+            self.key = Some(l.to_bits());
+            self.f.clear();
+        }
+        if self.f.is_empty() {
+            self.f.push(first());
+        }
+        while self.f.len() <= n {
+            let (i, prev) = (self.f.len(), self.f[self.f.len() - 1]);
+            let next = if prev > 0.0 || prev.is_nan() {
+                prev * factor(i)
+            } else {
+                0.0
+            };
+            self.f.push(next);
+        }
+        self.f[n]
+    }
+}
+
+/// Per-sample state of the plain connections.
+#[derive(Clone, Debug, Default)]
+pub struct PlainCache {
+    cam: Products,
+    light: Products,
+    /// Index of the first sub-path vertex that can shift the wavelength (the length if none).
+    cam_plain: usize,
+    light_plain: usize,
+}
+
+impl PlainCache {
+    /// Forget the products and find the first shifting vertices of new sub-paths.
+    pub fn reset(&mut self, cam: &[Vertex], light: &[Vertex]) {
+        self.cam.key = None;
+        self.light.key = None;
+        let first = |v: &[Vertex]| v.iter().position(|x| x.fluorescent).unwrap_or(v.len());
+        (self.cam_plain, self.light_plain) = (first(cam), first(light));
+    }
+
+    /// Whether strategy (s, t) connects a plain path: its interior vertices x1 … x(k−2) cannot
+    /// shift (t = 0: the camera vertices up to x(s−2); otherwise up to x(s−1) and the light
+    /// vertices y(t−1) … y1).
+    #[inline]
+    pub fn covers(&self, s: usize, t: usize) -> bool {
+        let cam_last = if t == 0 { s - 2 } else { s - 1 };
+        cam_last < self.cam_plain && t.saturating_sub(1) < self.light_plain
+    }
+}
+
+/// The factor of an interior vertex: f_λ · f_dir, then the geometry factor of the segment that
+/// leaves it towards the light (eq. 6.2); 0 where the vertex has no spectral part or f_dir = 0.
+#[inline(always)]
+fn factor(f_l: Option<f32>, f_dir: f32, g: f64) -> f64 {
+    match f_l {
+        Some(f_l) if f_dir != 0.0 => f_l as f64 * f_dir as f64 * g,
+        _ => 0.0,
+    }
+}
+
+/// f_λ at λ* of a vertex that keeps the wavelength.
+#[inline(always)]
+fn f_lambda(scene: &Scene, spec: &mut SpectralCache, x: &Vertex, l: f32) -> Option<f32> {
+    spec.f_lambda(scene, x, l, l, false)
+}
+
+/// L_e at λ* of emitter vertex `e` towards `to`.
+#[inline]
+fn emitted(scene: &Scene, e: &Vertex, to: Vec3, l: f32) -> f64 {
+    // the emitter's directional profile needs only the side of `to`, not a unit vector
+    let f = scene.lights[e.light as usize].le(l, e.n, to - e.p) as f64;
+    if f > 0.0 { f } else { 0.0 }
+}
+
+/// C(s) at λ: the pinhole importance and geometry term of x0 → x1 (`SubpathCache::head`) and
+/// the factors of the camera vertices x1 … x(s−2).
+fn camera_prefix(
+    scene: &Scene,
+    products: &mut Products,
+    cam: &mut SubpathCache,
+    v: &[Vertex],
+    spec: &mut SpectralCache,
+    s: usize,
+    l: f32,
+) -> f64 {
+    cam.camera(scene, v);
+    let first = || {
+        let (c0, a, b) = cam.head;
+        if c0 <= 0.0 { 0.0 } else { a / b }
+    };
+    let factor = |i: usize| factor(f_lambda(scene, spec, &v[i], l), cam.dir(i), cam.seg(i).g);
+    products.get(l, s - 2, first, factor)
+}
+
+/// L(t) at λ: the emission of y0 towards y1 and the factors of the light vertices y1 … y(t−2)
+/// (each with the segment towards its predecessor on the light sub-path).
+fn light_suffix(
+    scene: &Scene,
+    products: &mut Products,
+    lc: &mut SubpathCache,
+    v: &[Vertex],
+    spec: &mut SpectralCache,
+    t: usize,
+    l: f32,
+) -> f64 {
+    lc.light(scene, v);
+    let first = || emitted(scene, &v[0], v[1].p, l);
+    let factor = |j: usize| factor(f_lambda(scene, spec, &v[j], l), lc.dir(j), lc.seg(j).g);
+    products.get(l, t - 2, first, factor)
+}
+
+/// The pdfs that the connection changes (pbrt `Vertex::Pdf`): pa_fwd of x_s and pa_rev of
+/// x(s−1) and x(s−2) (t = 0: the emitter's light point and emission pdfs; `usize::MAX` where
+/// none).
+struct Changed {
+    fwd_s: f64,
+    rev: [(usize, f64); 2],
+}
+
+/// The strategy's own area pdf p_A(s) (eq. 6.3) and its MIS weight among ŝ = 1 … k (eq. 6.15
+/// generalised to the power heuristic) in one pass over x1 … x(k−1): p(ŝ)/p(s) is a product of
+/// ratios pa_rev/pa_fwd below s and pa_fwd/pa_rev from s on (pbrt's `MISWeight`, summed by
+/// Horner's rule below s), times p_Λ(ŝ)/p_Λ(s) for the two wavelength pdfs `below` (ŝ = 1)
+/// and `above` (ŝ ≥ 2) of a path that does not shift. The camera prefix keeps its sub-path's
+/// pdfs and the light suffix (`up`, x_s … x(k−1)) is turned around.
+#[inline]
+fn area_and_weight<'a>(
+    ends: &Ends<'a>,
+    changed: Changed,
+    (below, above): (f64, f64),
+    h: MisHeuristic,
+) -> (f64, f64) {
+    let s = ends.s;
+    let power = |r: f64| if h == MisHeuristic::Power { r * r } else { r };
+    let own = if s == 1 { below } else { above };
+    let (mut area, mut down) = (1.0, 0.0);
+    for (m, v) in ends.cam[..s].iter().enumerate().skip(1) {
+        let fwd = v.pdf_fwd as f64;
+        let rev = match changed.rev {
+            [(i, r), _] | [_, (i, r)] if i == m => r,
+            _ => v.pdf_rev as f64,
+        };
+        // p(ŝ)/p(s) for ŝ = 1 … m: each gains the factor of x_m (ŝ = 1 its p_Λ ratio)
+        area *= fwd;
+        let q = power(rev / fwd);
+        down = if m == 1 {
+            q * power(below / own)
+        } else {
+            q * (1.0 + down)
+        };
+    }
+    let (mut up, mut run) = (0.0, 1.0);
+    let above = power(above / own);
+    let mut pdf = |fwd: f64, rev: f64| {
+        // p(m + 1)/p(s) = p(m)/p(s) · pa_fwd[m] / pa_rev[m]
+        area *= rev;
+        run *= power(fwd / rev);
+        up += run * above;
+    };
+    match ends.fresh {
+        Some(v) => pdf(changed.fwd_s, v.pdf_fwd as f64),
+        None => {
+            for (j, v) in ends.light[..ends.t].iter().rev().enumerate() {
+                let fwd = if j == 0 {
+                    changed.fwd_s
+                } else {
+                    v.pdf_rev as f64
+                };
+                pdf(fwd, v.pdf_fwd as f64);
+            }
+        }
+    }
+    (area, 1.0 / (1.0 + down + up))
+}
+
+/// `Vertex::pdf` of scattering vertex `v` towards `next` along the unit direction `wi` at
+/// squared distance `d2`, with `wo` towards its other neighbour: the connection and the
+/// sub-paths already hold these directions, which `Vertex::pdf` would compute again.
+#[inline]
+fn scatter_pdf(scene: &Scene, v: &Vertex, wo: Vec3, (wi, d2): (Vec3, f32), next: &Vertex) -> f32 {
+    Vertex::area_pdf(v.scattering(scene).pdf(wo, wi), wi, d2, next)
+}
+
+/// The per-sample caches a plain connection reads and extends.
+struct Caches<'a> {
+    cam: &'a mut SubpathCache,
+    light: &'a mut SubpathCache,
+    spectral: &'a mut SpectralCache,
+    plain: &'a mut PlainCache,
+}
+
+/// The vertices of one connection: camera prefix, light suffix (in light sub-path order) or the
+/// fresh light vertex of next-event estimation.
+struct Ends<'a> {
+    s: usize,
+    t: usize,
+    cam: &'a [Vertex],
+    light: &'a [Vertex],
+    fresh: Option<&'a Vertex>,
+}
+
+impl Ends<'_> {
+    /// x_i of the connected path.
+    #[inline(always)]
+    fn x(&self, i: usize) -> &Vertex {
+        match self.fresh {
+            _ if i < self.s => &self.cam[i],
+            Some(v) => v,
+            None => &self.light[self.s + self.t - 1 - i],
+        }
+    }
+}
+
+impl Bdpt {
+    /// [`super::evaluate`]'s connection of strategy (s, t) for a plain path (module doc): the
+    /// weighted contribution w · f / p (eqs. 6.18, 6.19) in XYZ, drawing the same random numbers.
+    pub(super) fn connect_plain(
+        &self,
+        scene: &Scene,
+        s: usize,
+        t: usize,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        stats: &mut Stats,
+    ) -> Option<Contribution> {
+        // NEE: a fresh light vertex per camera vertex (Jung 6.3.4); backward: its λ first
+        let (mut fresh, mut lambda) = (None, None);
+        if t == 1 && s >= 2 {
+            let lv = sample_light_vertex(scene, sampler);
+            if self.mode == ResetMode::Backward {
+                let (li, mode) = (lv.light as usize, self.light_wavelengths);
+                lambda = Some(scene.lights.sample_wavelength(li, sampler.next(), mode).0);
+            }
+            fresh = Some(lv);
+        }
+        let Scratch {
+            cam,
+            light,
+            cam_cache,
+            light_cache,
+            spectral,
+            xyz,
+            plain,
+            ..
+        } = scratch;
+        let (cam, light) = (&cam[..], &light[..]);
+        let mut caches = Caches {
+            cam: cam_cache,
+            light: light_cache,
+            spectral,
+            plain,
+        };
+        let ends = Ends {
+            s,
+            t,
+            cam,
+            light,
+            fresh: fresh.as_ref(),
+        };
+        let e = ends.x(s + t - 1);
+        // λ* (Jung 6.3): light tracing keeps the light's, the forward reset the camera's, the
+        // backward reset the emitter's (t = 0: sampled from its emission, Jung 6.3.3)
+        let l = match (s, t, self.mode) {
+            (1, ..) => light[0].data.lambda_out,
+            (_, _, ResetMode::Forward) => cam[0].data.lambda_in,
+            (_, 0, ResetMode::Backward) => {
+                let mode = self.light_wavelengths;
+                scene
+                    .lights
+                    .sample_wavelength(e.light as usize, sampler.next(), mode)
+                    .0
+            }
+            (_, _, ResetMode::Backward) => lambda.unwrap_or(light[0].data.lambda_out),
+        };
+        let xyz_w = xyz_weight(scene, l, xyz);
+        if xyz_w == Vec3::ZERO {
+            return None;
+        }
+        let (mut f, conn) = measurement(scene, &ends, l, &mut caches)?;
+        let x = |i| ends.x(i);
+        // light tracing splats where x1 is seen
+        let mut splat = None;
+        if s == 1 {
+            let d = x(1).p - cam[0].p;
+            let (px, py, _) = scene.camera.project(d.normalize())?;
+            splat = Some((px, py));
+        }
+        if t >= 1 {
+            let (a, b) = (x(s - 1).endpoint(), x(s).endpoint());
+            let rays = &mut stats.rays;
+            let tr = if s == 1 {
+                transmittance(scene, b, a, rays)
+            } else {
+                transmittance(scene, a, b, rays)
+            };
+            if tr.is_zero() {
+                return None;
+            }
+            f *= tr.at(l) as f64;
+        }
+        // p_Λ(ŝ) of a path that does not shift (eqs. 6.4, 6.5, 6.9–6.13): the camera's for the
+        // forward reset's camera strategies, the emitter's otherwise
+        let pc0 = scene.observer.pdf_wavelength(self.camera_wavelengths, l) as f64;
+        let ple = scene
+            .lights
+            .pdf_wavelength(e.light as usize, l, self.light_wavelengths) as f64;
+        let wl = match self.mode {
+            ResetMode::Forward => (ple, pc0),
+            ResetMode::Backward => (ple, ple),
+        };
+        let changed = changed_pdfs(scene, &ends, conn, &caches);
+        let (area, w) = area_and_weight(&ends, changed, wl, self.mis);
+        // the strategy's own pdf (eq. 6.14); zero, NaN or infinite is a lost contribution
+        let p = area * if s == 1 { wl.0 } else { wl.1 };
+        if !(p > 0.0 && p.is_finite()) {
+            stats.dropped_strategy_pdfs += (f != 0.0) as u64;
+            return None;
+        }
+        let w = if self.only.is_some() { 1.0 } else { w };
+        // eqs. 6.18/6.19: w · f / (p_A p_Λ), in XYZ with the CIE weight at λ0 = λ*
+        let c = (w * f / p) as f32;
+        if c.is_nan() || c <= 0.0 || !c.is_finite() {
+            stats.nan_inf_rejected += !c.is_finite() as u64;
+            return None;
+        }
+        Some((xyz_w * c, splat))
+    }
+}
+
+/// The measurement f of the connection at λ* = `l` (eq. 6.2): C(s) · [x(s−1), x_s] · L(t),
+/// with the connection's factors first, so that a zero f_dir ends it before the products
+/// are looked up. `None` where f is 0; else f and the segment x(s−1) → x_s (t ≥ 1).
+#[inline]
+fn measurement(
+    scene: &Scene,
+    ends: &Ends,
+    l: f32,
+    caches: &mut Caches,
+) -> Option<(f64, Option<Seg>)> {
+    let (s, t) = (ends.s, ends.t);
+    let Caches {
+        cam: cam_cache,
+        light: light_cache,
+        spectral,
+        plain,
+    } = caches;
+    let (cam, light) = (ends.cam, ends.light);
+    if t == 0 {
+        let e = ends.x(s - 1);
+        let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
+        let f = emitted(scene, e, cam[s - 2].p, l) * c;
+        return (f > 0.0 || f.is_nan()).then_some((f, None));
+    }
+    let (a, b) = (ends.x(s - 1), ends.x(s));
+    let conn = Seg::new(a, b);
+    // the connection's directional factors at x(s−1) (s ≥ 2) and x_s (t ≥ 2)
+    let dir_a = if s >= 2 {
+        cam_cache.camera(scene, cam);
+        a.scattering(scene).eval(-cam_cache.seg(s - 2).w, conn.w)
+    } else {
+        1.0
+    };
+    let dir_b = if t >= 2 {
+        light_cache.light(scene, light);
+        b.scattering(scene).eval(-conn.w, light_cache.seg(t - 1).w)
+    } else {
+        1.0
+    };
+    if dir_a == 0.0 || dir_b == 0.0 {
+        return None;
+    }
+    let cam_part = if s == 1 {
+        // x0 → x1: We = 1 / (A cos⁴θ) and the geometry term without the pinhole's cosine
+        let c0 = conn.w.dot(scene.camera.forward) as f64;
+        if c0 <= 0.0 {
+            return None;
+        }
+        let g = c0 * b.abs_cos(conn.w) as f64 / conn.d2 as f64;
+        g / (scene.camera.film_area() as f64 * c0 * c0 * c0 * c0)
+    } else {
+        let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
+        c * factor(f_lambda(scene, spectral, a, l), dir_a, conn.g)
+    };
+    let light_part = if t == 1 {
+        emitted(scene, b, a.p, l)
+    } else {
+        let lf = light_suffix(scene, &mut plain.light, light_cache, light, spectral, t, l);
+        lf * factor(
+            f_lambda(scene, spectral, b, l),
+            dir_b,
+            light_cache.seg(t - 1).g,
+        )
+    };
+    let f = cam_part * light_part;
+    (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
+}
+
+/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`), along the connection's own
+/// directions where the vertex scatters.
+fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Seg>, caches: &Caches) -> Changed {
+    let (s, t) = (ends.s, ends.t);
+    let x = |i| ends.x(i);
+    let Some(conn) = conn else {
+        // t = 0: the light point and emission pdfs at the emitter x(s−1)
+        let e = x(s - 1);
+        let rev = [
+            (s - 1, e.pdf_light_origin(scene) as f64),
+            (s - 2, e.pdf_emit(scene, x(s - 2)) as f64),
+        ];
+        return Changed { fwd_s: 0.0, rev };
+    };
+    let (a, b) = (x(s - 1), x(s));
+    let fwd = if s >= 2 {
+        let wo = -caches.cam.seg(s - 2).w;
+        scatter_pdf(scene, a, wo, (conn.w, conn.d2), b)
+    } else {
+        a.pdf(scene, None::<&Vertex>, b)
+    };
+    let rev = if t >= 2 {
+        let wo = caches.light.seg(t - 1).w;
+        scatter_pdf(scene, b, wo, (-conn.w, conn.d2), a)
+    } else {
+        b.pdf(scene, None::<&Vertex>, a)
+    };
+    Changed {
+        fwd_s: fwd as f64,
+        rev: [(s - 1, rev as f64), (usize::MAX, 0.0)],
+    }
+}
+
+/// One connection evaluated both ways by [`plain_for_test`]: the contribution, the statistics
+/// it added, and the next random number after it (both must draw the same numbers).
+#[derive(Clone, Debug)]
+pub struct PlainTrial {
+    pub contribution: Option<Contribution>,
+    pub stats: Stats,
+    pub next_random: f32,
+}
+
+/// Connect strategy (s, t) of the sub-paths in `scratch` as a plain path and on the full path,
+/// each from a copy of `sampler` (test hook); `None` when the path is not plain.
+pub fn plain_for_test(
+    b: &Bdpt,
+    scene: &Scene,
+    scratch: &mut Scratch,
+    s: usize,
+    t: usize,
+    sampler: &Sampler,
+) -> Option<[PlainTrial; 2]> {
+    if scene.has_media || !scratch.plain.covers(s, t) {
+        return None;
+    }
+    let mut run = |plain: bool| {
+        let (mut sampler, mut stats) = (sampler.clone(), Stats::default());
+        let contribution = if plain {
+            b.connect_plain(scene, s, t, &mut sampler, scratch, &mut stats)
+        } else {
+            b.connect_full(scene, s, t, &mut sampler, scratch, &mut stats)
+        };
+        PlainTrial {
+            contribution,
+            stats,
+            next_random: sampler.next(),
+        }
+    };
+    Some([run(true), run(false)])
+}
