@@ -74,6 +74,7 @@ impl Products {
 pub struct PlainCache {
     cam: Products,
     light: Products,
+    emit: Emitters,
     /// Index of the first sub-path vertex that can shift the wavelength (the length if none).
     cam_plain: usize,
     light_plain: usize,
@@ -114,11 +115,46 @@ fn f_lambda(scene: &Scene, spec: &mut SpectralCache, x: &Vertex, l: f32) -> Opti
     spec.f_lambda(scene, x, l, l, false)
 }
 
+/// The emission spectrum and wavelength pdfs at the wavelength and light last seen (most
+/// connections of a sample share both).
+#[derive(Clone, Copy, Debug, Default)]
+struct Emitters {
+    /// (light, bits of λ) → L_e(λ) of that light's spectrum.
+    le: Option<((u32, u32), f32)>,
+    /// (light, bits of λ) → p_l(λ | light) (eq. 6.5).
+    ple: Option<((u32, u32), f64)>,
+    /// bits of λ → p_c(λ) (eq. 6.4).
+    pc0: Option<(u32, f64)>,
+}
+
+/// A cached value of `key`, computed by `eval` on a miss.
+#[inline(always)]
+fn cached<K: PartialEq + Copy, V: Copy>(
+    slot: &mut Option<(K, V)>,
+    key: K,
+    eval: impl FnOnce() -> V,
+) -> V {
+    match *slot {
+        Some((k, v)) if k == key => v,
+        _ => {
+            let v = eval();
+            *slot = Some((key, v));
+            v
+        }
+    }
+}
+
 /// L_e at λ* of emitter vertex `e` towards `to`.
 #[inline]
-fn emitted(scene: &Scene, e: &Vertex, to: Vec3, l: f32) -> f64 {
+fn emitted(scene: &Scene, cache: &mut Emitters, e: &Vertex, to: Vec3, l: f32) -> f64 {
+    let light = &scene.lights[e.light as usize];
     // the emitter's directional profile needs only the side of `to`, not a unit vector
-    let f = scene.lights[e.light as usize].le(l, e.n, to - e.p) as f64;
+    if !light.emits_towards(e.n, to - e.p) {
+        return 0.0;
+    }
+    let f = cached(&mut cache.le, (e.light, l.to_bits()), || {
+        light.spectrum.eval(l)
+    }) as f64;
     if f > 0.0 { f } else { 0.0 }
 }
 
@@ -149,12 +185,12 @@ fn light_suffix(
     products: &mut Products,
     lc: &mut SubpathCache,
     v: &[Vertex],
-    spec: &mut SpectralCache,
+    (spec, emit): (&mut SpectralCache, &mut Emitters),
     t: usize,
     l: f32,
 ) -> f64 {
     lc.light(scene, v);
-    let first = || emitted(scene, &v[0], v[1].p, l);
+    let first = || emitted(scene, emit, &v[0], v[1].p, l);
     let factor = |j: usize| factor(f_lambda(scene, spec, &v[j], l), lc.dir(j), lc.seg(j).g);
     products.get(l, t - 2, first, factor)
 }
@@ -350,10 +386,14 @@ impl Bdpt {
         }
         // p_Λ(ŝ) of a path that does not shift (eqs. 6.4, 6.5, 6.9–6.13): the camera's for the
         // forward reset's camera strategies, the emitter's otherwise
-        let pc0 = scene.observer.pdf_wavelength(self.camera_wavelengths, l) as f64;
-        let ple = scene
-            .lights
-            .pdf_wavelength(e.light as usize, l, self.light_wavelengths) as f64;
+        let emit = &mut caches.plain.emit;
+        let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
+        let pc0 = cached(&mut emit.pc0, l.to_bits(), || {
+            scene.observer.pdf_wavelength(cw, l) as f64
+        });
+        let ple = cached(&mut emit.ple, (e.light, l.to_bits()), || {
+            scene.lights.pdf_wavelength(e.light as usize, l, lw) as f64
+        });
         let wl = match self.mode {
             ResetMode::Forward => (ple, pc0),
             ResetMode::Backward => (ple, ple),
@@ -398,7 +438,7 @@ fn measurement(
     if t == 0 {
         let e = ends.x(s - 1);
         let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
-        let f = emitted(scene, e, cam[s - 2].p, l) * c;
+        let f = emitted(scene, &mut plain.emit, e, cam[s - 2].p, l) * c;
         return (f > 0.0 || f.is_nan()).then_some((f, None));
     }
     let (a, b) = (ends.x(s - 1), ends.x(s));
@@ -432,9 +472,10 @@ fn measurement(
         c * factor(f_lambda(scene, spectral, a, l), dir_a, conn.g)
     };
     let light_part = if t == 1 {
-        emitted(scene, b, a.p, l)
+        emitted(scene, &mut plain.emit, b, a.p, l)
     } else {
-        let lf = light_suffix(scene, &mut plain.light, light_cache, light, spectral, t, l);
+        let (products, sp) = (&mut plain.light, (&mut **spectral, &mut plain.emit));
+        let lf = light_suffix(scene, products, light_cache, light, sp, t, l);
         lf * factor(
             f_lambda(scene, spectral, b, l),
             dir_b,
