@@ -10,7 +10,7 @@ use crate::integrator::{SampleSink, Sampler, Stats};
 use crate::material::{Bbrrdf, PathSide, ShiftSampling};
 use crate::scene::{NONE, Scene};
 use crate::transport::spectral::with_spectrum;
-use crate::transport::{VertexKind, transmittance};
+use crate::transport::{Transmittance, VertexKind, transmittance};
 
 /// The measurement contribution f_j of the path (eq. 6.2) without visibility and without the
 /// transmittance of its segments, with the pinhole importance We = 1 / (A cos⁴θ) of the whole
@@ -282,6 +282,24 @@ pub(super) fn xyz_weight(
     }
 }
 
+/// The transmittance of the connecting segment x(s−1) → x_s without media (shadow rays start
+/// on the surface side; light tracing's from x1 towards the pinhole).
+#[inline(always)]
+pub(super) fn shadow(
+    scene: &Scene,
+    a: &Vertex,
+    b: &Vertex,
+    s: usize,
+    rays: &mut u64,
+) -> Transmittance {
+    let (a, b) = (a.endpoint(), b.endpoint());
+    if s == 1 {
+        transmittance(scene, b, a, rays)
+    } else {
+        transmittance(scene, a, b, rays)
+    }
+}
+
 /// Index of the strategy image of (s, t): ordered by k = s + t, then s.
 pub fn strategy_layer(s: usize, t: usize) -> usize {
     let k = s + t;
@@ -312,6 +330,20 @@ impl Bdpt {
         }
     }
 
+    /// A fresh light vertex for next-event estimation (Jung 6.3.4); the backward reset first
+    /// draws its wavelength from the chosen light (then walks the camera path).
+    #[inline(always)]
+    pub(super) fn fresh_light_vertex(&self, scene: &Scene, sampler: &mut Sampler) -> Vertex {
+        let mut lv = sample_light_vertex(scene, sampler);
+        if self.mode == ResetMode::Backward {
+            let (li, mode) = (lv.light as usize, self.light_wavelengths);
+            let (l, _) = scene.lights.sample_wavelength(li, sampler.next(), mode);
+            lv.data.lambda_in = l;
+            lv.data.lambda_out = l;
+        }
+        lv
+    }
+
     /// Put the vertices of strategy (s, t) into `scratch.path` (t = 1, s ≥ 2: a fresh light
     /// vertex, returns true); the camera prefix of the previous connection stays when it has
     /// the same s.
@@ -334,19 +366,7 @@ impl Bdpt {
         }
         let fresh = t == 1 && s >= 2;
         if fresh {
-            // NEE: a fresh light vertex per camera vertex (Jung 6.3.4)
-            let mut lv = sample_light_vertex(scene, sampler);
-            if self.mode == ResetMode::Backward {
-                // backward: λ from the chosen light first, then walk the camera path
-                let (l, _) = scene.lights.sample_wavelength(
-                    lv.light as usize,
-                    sampler.next(),
-                    self.light_wavelengths,
-                );
-                lv.data.lambda_in = l;
-                lv.data.lambda_out = l;
-            }
-            path.v.push(lv);
+            path.v.push(self.fresh_light_vertex(scene, sampler));
         } else {
             // the light sub-path's first t vertices, in path order
             let nl = scratch.light.len();
@@ -432,12 +452,7 @@ impl Bdpt {
                 let tr = super::media::connection(scene, path, s, mode, rays, sampler)?;
                 f *= tr as f64;
             } else {
-                let (a, b) = (path.v[s - 1].endpoint(), path.v[s].endpoint());
-                let tr = if s == 1 {
-                    transmittance(scene, b, a, rays)
-                } else {
-                    transmittance(scene, a, b, rays)
-                };
+                let tr = shadow(scene, &path.v[s - 1], &path.v[s], s, rays);
                 if tr.is_zero() {
                     return None;
                 }

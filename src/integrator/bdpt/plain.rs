@@ -17,13 +17,12 @@
 //! connection).
 
 use super::cache::{Seg, SpectralCache, SubpathCache};
-use super::evaluate::{Contribution, xyz_weight};
+use super::evaluate::{Contribution, shadow, xyz_weight};
 use super::mis::ResetMode;
-use super::subpath::{Vertex, sample_light_vertex};
+use super::subpath::Vertex;
 use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
-use crate::transport::transmittance;
 use glam::Vec3;
 
 /// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
@@ -180,6 +179,7 @@ fn camera_prefix(
 
 /// L(t) at λ: the emission of y0 towards y1 and the factors of the light vertices y1 … y(t−2)
 /// (each with the segment towards its predecessor on the light sub-path).
+#[inline(always)]
 fn light_suffix(
     scene: &Scene,
     products: &mut Products,
@@ -309,16 +309,8 @@ impl Bdpt {
         scratch: &mut Scratch,
         stats: &mut Stats,
     ) -> Option<Contribution> {
-        // NEE: a fresh light vertex per camera vertex (Jung 6.3.4); backward: its λ first
-        let (mut fresh, mut lambda) = (None, None);
-        if t == 1 && s >= 2 {
-            let lv = sample_light_vertex(scene, sampler);
-            if self.mode == ResetMode::Backward {
-                let (li, mode) = (lv.light as usize, self.light_wavelengths);
-                lambda = Some(scene.lights.sample_wavelength(li, sampler.next(), mode).0);
-            }
-            fresh = Some(lv);
-        }
+        // NEE: a fresh light vertex per camera vertex (Jung 6.3.4)
+        let fresh = (t == 1 && s >= 2).then(|| self.fresh_light_vertex(scene, sampler));
         let Scratch {
             cam,
             light,
@@ -356,7 +348,8 @@ impl Bdpt {
                     .sample_wavelength(e.light as usize, sampler.next(), mode)
                     .0
             }
-            (_, _, ResetMode::Backward) => lambda.unwrap_or(light[0].data.lambda_out),
+            (_, 1, ResetMode::Backward) => e.data.lambda_out,
+            (_, _, ResetMode::Backward) => light[0].data.lambda_out,
         };
         let xyz_w = xyz_weight(scene, l, xyz);
         if xyz_w == Vec3::ZERO {
@@ -372,13 +365,7 @@ impl Bdpt {
             splat = Some((px, py));
         }
         if t >= 1 {
-            let (a, b) = (x(s - 1).endpoint(), x(s).endpoint());
-            let rays = &mut stats.rays;
-            let tr = if s == 1 {
-                transmittance(scene, b, a, rays)
-            } else {
-                transmittance(scene, a, b, rays)
-            };
+            let tr = shadow(scene, x(s - 1), x(s), s, &mut stats.rays);
             if tr.is_zero() {
                 return None;
             }
@@ -488,6 +475,7 @@ fn measurement(
 
 /// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`), along the connection's own
 /// directions where the vertex scatters.
+#[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Seg>, caches: &Caches) -> Changed {
     let (s, t) = (ends.s, ends.t);
     let x = |i| ends.x(i);
