@@ -6,6 +6,7 @@ use crate::film::Film;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
 #[derive(Clone, Debug)]
@@ -143,6 +144,32 @@ pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> R
     }
 }
 
+/// The integrator's scratch memory, one per worker thread of the pool, kept for the whole render
+/// (its caches hold only pure functions of their keys, so which thread's copy a row uses does not
+/// change the image).
+struct Scratches<S>(Vec<Slot<S>>);
+
+/// One worker's scratch on cache lines of its own: the structs hold the vectors' lengths, which
+/// every sample writes, and two workers writing the same line would slow each other down.
+#[repr(align(128))]
+struct Slot<S>(Mutex<S>);
+
+impl<S> Scratches<S> {
+    fn new(make: impl Fn() -> S) -> Self {
+        Scratches(
+            (0..rayon::current_num_threads())
+                .map(|_| Slot(Mutex::new(make())))
+                .collect(),
+        )
+    }
+
+    /// The calling worker's scratch (uncontended: a worker runs one row at a time).
+    fn get(&self) -> MutexGuard<'_, S> {
+        let i = rayon::current_thread_index().unwrap_or(0) % self.0.len();
+        self.0[i].0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
 /// What a row leaves besides its pixel values, which go straight into the film; kept from pass
 /// to pass, so that a pass allocates nothing once the buffers have grown.
 struct RowResult {
@@ -177,6 +204,7 @@ impl RowResult {
 /// film row; then the splats, by bands of film rows in parallel, and the strategy-image values
 /// are added in row order, so every sum sees the same additions in the same order whatever the
 /// thread count.
+#[allow(clippy::too_many_arguments)]
 fn pass<I: Integrator>(
     scene: &Scene,
     integrator: &I,
@@ -184,38 +212,42 @@ fn pass<I: Integrator>(
     s: u32,
     film: &mut Film,
     rows: &mut [RowResult],
+    scratches: &Scratches<I::Scratch>,
     stats: &mut Stats,
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
+    // One row per job: a thread that runs out steals single rows, so both threads stay busy to
+    // the end of the pass (rayon's default leaves run up to a quarter of the rows in one piece,
+    // which the other thread can only wait for).
     film.sum
         .par_chunks_mut(w as usize)
         .zip(rows.par_iter_mut())
         .enumerate()
-        .for_each_init(
-            || integrator.scratch(scene),
-            |scratch, (y, (film_row, r))| {
-                let y = y as u32;
-                r.clear();
-                for (x, sum) in (0..w).zip(film_row.iter_mut()) {
-                    let pixel = y * w + x;
-                    let mut sampler = Sampler::new(seed, pixel as u64, s as u64);
-                    let (jx, jy) = (sampler.next(), sampler.next());
-                    let mut sink = SampleSink {
-                        value: Vec3::ZERO,
-                        width: w,
-                        height: h,
-                        splats: &mut r.splats,
-                        aux: &mut r.aux,
-                        stats: &mut r.stats,
-                        pixel,
-                    };
-                    sink.stats.paths += 1;
-                    let (fx, fy) = (x as f32 + jx, y as f32 + jy);
-                    integrator.sample(scene, fx, fy, &mut sampler, scratch, &mut sink);
-                    Film::add(sum, sink.value);
-                }
-            },
-        );
+        .with_max_len(1)
+        .for_each(|(y, (film_row, r))| {
+            let mut scratch = scratches.get();
+            let scratch = &mut *scratch;
+            let y = y as u32;
+            r.clear();
+            for (x, sum) in (0..w).zip(film_row.iter_mut()) {
+                let pixel = y * w + x;
+                let mut sampler = Sampler::new(seed, pixel as u64, s as u64);
+                let (jx, jy) = (sampler.next(), sampler.next());
+                let mut sink = SampleSink {
+                    value: Vec3::ZERO,
+                    width: w,
+                    height: h,
+                    splats: &mut r.splats,
+                    aux: &mut r.aux,
+                    stats: &mut r.stats,
+                    pixel,
+                };
+                sink.stats.paths += 1;
+                let (fx, fy) = (x as f32 + jx, y as f32 + jy);
+                integrator.sample(scene, fx, fy, &mut sampler, scratch, &mut sink);
+                Film::add(sum, sink.value);
+            }
+        });
     let band = (Splats::BAND_ROWS * w) as usize;
     if rows
         .iter()
@@ -224,6 +256,7 @@ fn pass<I: Integrator>(
         film.splat
             .par_chunks_mut(band)
             .enumerate()
+            .with_max_len(1)
             .for_each(|(b, splat)| {
                 let base = b * band;
                 for r in rows.iter() {
@@ -251,6 +284,7 @@ pub fn run<I: Integrator>(
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h, integrator.aux_layers());
     let mut rows: Vec<RowResult> = (0..h).map(|_| RowResult::new(w, h)).collect();
+    let scratches = Scratches::new(|| integrator.scratch(scene));
     let mut stats = Stats::default();
     let start = Instant::now();
     let bar = if settings.progress && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
@@ -286,6 +320,7 @@ pub fn run<I: Integrator>(
             s,
             &mut film,
             &mut rows,
+            &scratches,
             &mut stats,
         );
         film.spp += 1;
