@@ -300,6 +300,31 @@ pub(super) fn shadow(
     }
 }
 
+/// Where light tracing (s = 1) splats: the film position at which the pinhole `x0` sees `x1`;
+/// `None` off the film.
+#[inline(always)]
+pub(super) fn splat_position(scene: &Scene, x0: &Vertex, x1: &Vertex) -> Option<(f32, f32)> {
+    let (px, py, _) = scene.camera.project((x1.p - x0.p).normalize())?;
+    Some((px, py))
+}
+
+/// The contribution w · f / p (eqs. 6.18/6.19, computed in f64) in XYZ with the CIE weight at
+/// λ0; a zero, negative or NaN value adds nothing, and a NaN or infinite one is counted.
+#[inline(always)]
+pub(super) fn weighted(
+    xyz_w: glam::Vec3,
+    wfp: f64,
+    splat: Option<(f32, f32)>,
+    stats: &mut Stats,
+) -> Option<Contribution> {
+    let c = wfp as f32;
+    if c.is_nan() || c <= 0.0 || !c.is_finite() {
+        stats.nan_inf_rejected += !c.is_finite() as u64;
+        return None;
+    }
+    Some((xyz_w * c, splat))
+}
+
 /// Index of the strategy image of (s, t): ordered by k = s + t, then s.
 pub fn strategy_layer(s: usize, t: usize) -> usize {
     let k = s + t;
@@ -434,15 +459,11 @@ impl Bdpt {
         if f <= 0.0 {
             return None;
         }
-        // splat position for light tracing
-        let mut splat = None;
-        if s == 1 {
-            let d = path.v[1].p - path.v[0].p;
-            match scene.camera.project(d.normalize()) {
-                Some((px, py, _)) => splat = Some((px, py)),
-                None => return None,
-            }
-        }
+        let splat = if s == 1 {
+            Some(splat_position(scene, &path.v[0], &path.v[1])?)
+        } else {
+            None
+        };
         // transmittance of the connecting segment (shadow rays start on the surface side)
         let mut f = f;
         if t >= 1 {
@@ -490,14 +511,7 @@ impl Bdpt {
             return None;
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
-        let c = (w * f / p) as f32;
-        if c.is_nan() || c <= 0.0 || !c.is_finite() {
-            if !c.is_finite() {
-                stats.nan_inf_rejected += 1;
-            }
-            return None;
-        }
-        Some((xyz_w * c, splat))
+        weighted(xyz_w, w * f / p, splat, stats)
     }
 
     /// Add the contribution `xyz` of strategy (s, t) to the pixel, or splat it at `splat` (light

@@ -167,7 +167,10 @@ impl Bdpt {
         scratch.prefix = 0;
         scratch.light_rev.clear();
         scratch.light_rev.extend(scratch.light.iter().rev());
-        scratch.plain.reset(&scratch.cam, &scratch.light);
+        if !media {
+            // plain connections need scenes without media (`plain`)
+            scratch.plain.reset(&scratch.cam, &scratch.light);
+        }
     }
 }
 

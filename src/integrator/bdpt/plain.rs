@@ -17,7 +17,7 @@
 //! connection).
 
 use super::cache::{Seg, SpectralCache, SubpathCache};
-use super::evaluate::{Contribution, shadow, xyz_weight};
+use super::evaluate::{Contribution, shadow, splat_position, weighted, xyz_weight};
 use super::mis::ResetMode;
 use super::subpath::Vertex;
 use super::{Bdpt, Scratch};
@@ -357,13 +357,11 @@ impl Bdpt {
         }
         let (mut f, conn) = measurement(scene, &ends, l, &mut caches)?;
         let x = |i| ends.x(i);
-        // light tracing splats where x1 is seen
-        let mut splat = None;
-        if s == 1 {
-            let d = x(1).p - cam[0].p;
-            let (px, py, _) = scene.camera.project(d.normalize())?;
-            splat = Some((px, py));
-        }
+        let splat = if s == 1 {
+            Some(splat_position(scene, &cam[0], x(1))?)
+        } else {
+            None
+        };
         if t >= 1 {
             let tr = shadow(scene, x(s - 1), x(s), s, &mut stats.rays);
             if tr.is_zero() {
@@ -395,12 +393,7 @@ impl Bdpt {
         }
         let w = if self.only.is_some() { 1.0 } else { w };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), in XYZ with the CIE weight at λ0 = λ*
-        let c = (w * f / p) as f32;
-        if c.is_nan() || c <= 0.0 || !c.is_finite() {
-            stats.nan_inf_rejected += !c.is_finite() as u64;
-            return None;
-        }
-        Some((xyz_w * c, splat))
+        weighted(xyz_w, w * f / p, splat, stats)
     }
 }
 
