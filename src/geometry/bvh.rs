@@ -115,7 +115,11 @@ struct TRay {
     o: Vec3A,
     d: Vec3A,
     inv_d: Vec3A,
-    neg: [bool; 3],
+    /// Byte offsets in a `CwBvhNode` of the near and far child planes per axis (x, y, z): the
+    /// max plane is the near one where the direction is negative. Chosen once per ray, so the
+    /// node test does not branch on the direction.
+    #[cfg(target_arch = "x86_64")]
+    planes: [usize; 6],
 }
 
 impl TRay {
@@ -134,8 +138,39 @@ impl TRay {
             o: Vec3A::from(ray.o),
             d,
             inv_d: Vec3A::new(safe(d.x), safe(d.y), safe(d.z)),
-            neg: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
+            #[cfg(target_arch = "x86_64")]
+            planes: {
+                use std::mem::offset_of;
+                let axis = |neg: bool, lo: usize, hi: usize| if neg { [hi, lo] } else { [lo, hi] };
+                let [nx, fx] = axis(
+                    d.x < 0.0,
+                    offset_of!(CwBvhNode, child_min_x),
+                    offset_of!(CwBvhNode, child_max_x),
+                );
+                let [ny, fy] = axis(
+                    d.y < 0.0,
+                    offset_of!(CwBvhNode, child_min_y),
+                    offset_of!(CwBvhNode, child_max_y),
+                );
+                let [nz, fz] = axis(
+                    d.z < 0.0,
+                    offset_of!(CwBvhNode, child_min_z),
+                    offset_of!(CwBvhNode, child_max_z),
+                );
+                [nx, fx, ny, fy, nz, fz]
+            },
         }
+    }
+
+    /// Pointers to the near and far planes of `node`'s children ([`TRay::planes`]), each an
+    /// `[u8; 8]` field of the node.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn planes(&self, node: &CwBvhNode) -> [*const std::arch::x86_64::__m128i; 6] {
+        let base = node as *const CwBvhNode as *const u8;
+        // each offset is that of a field of the node, so every pointer stays inside it
+        self.planes
+            .map(|o| base.wrapping_add(o) as *const std::arch::x86_64::__m128i)
     }
 }
 
@@ -149,13 +184,7 @@ fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8
 
     let adj_dir_inv = node.compute_extent() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let sel = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| -> (*const __m128i, *const __m128i) {
-        let (n, f) = if neg { (hi, lo) } else { (lo, hi) };
-        (n.as_ptr() as *const __m128i, f.as_ptr() as *const __m128i)
-    };
-    let (nx, fx) = sel(r.neg[0], &node.child_min_x, &node.child_max_x);
-    let (ny, fy) = sel(r.neg[1], &node.child_min_y, &node.child_max_y);
-    let (nz, fz) = sel(r.neg[2], &node.child_min_z, &node.child_max_z);
+    let [nx, fx, ny, fy, nz, fz] = r.planes(node);
 
     // SAFETY: SSE/SSE2 are part of the x86_64 baseline; the unaligned 8-byte loads read exactly
     // one `[u8; 8]` field each.
@@ -221,13 +250,7 @@ fn intersect_node_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f
 
     let adj_dir_inv = node.compute_extent() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let sel = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| -> (*const __m128i, *const __m128i) {
-        let (n, f) = if neg { (hi, lo) } else { (lo, hi) };
-        (n.as_ptr() as *const __m128i, f.as_ptr() as *const __m128i)
-    };
-    let (nx, fx) = sel(r.neg[0], &node.child_min_x, &node.child_max_x);
-    let (ny, fy) = sel(r.neg[1], &node.child_min_y, &node.child_max_y);
-    let (nz, fz) = sel(r.neg[2], &node.child_min_z, &node.child_max_z);
+    let [nx, fx, ny, fy, nz, fz] = r.planes(node);
     // SAFETY: AVX2 is enabled for this function; the 8-byte loads read one `[u8; 8]` field each.
     unsafe {
         let q = |p: *const __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p)));
@@ -319,9 +342,133 @@ fn inner_child(node: &CwBvhNode, meta: u8) -> u32 {
 
 /// Traversal stack entry: node index and the ray's entry distance into its box.
 #[derive(Clone, Copy, Default)]
+#[repr(C)]
 struct Entry {
     node: u32,
     t: f32,
+}
+
+/// Per `imask`: for each slot, the number of internal slots below it (the child's offset from
+/// `child_base_idx` if the slot is internal).
+const INNER_RANK: [[u8; 8]; 256] = {
+    let mut t = [[0u8; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut i = 0;
+        while i < 8 {
+            t[m][i] = (m & ((1 << i) - 1)).count_ones() as u8;
+            i += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Per 8-bit mask: its set bits in increasing order, then zeros (the left-packing permutation).
+const PACK: [[u8; 8]; 256] = {
+    let mut t = [[0u8; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut i, mut k) = (0, 0);
+        while i < 8 {
+            if m & (1 << i) != 0 {
+                t[m][k] = i as u8;
+                k += 1;
+            }
+            i += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Write the entries of `node`'s internal children in `inner` (slot mask) to `out`, in slot
+/// order and without gaps; all 8 entries are written (the rest repeat slot 0's child index and
+/// distance and are not used). Without branches on the mask where AVX2 is used.
+#[inline(always)]
+fn write_inner<const AVX: bool>(
+    node: &CwBvhNode,
+    inner: u32,
+    tmins: &[f32; 8],
+    out: &mut [MaybeUninit<Entry>],
+) {
+    let out = &mut out[..8];
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is only true on the AVX2 path; the loads read one `[u8; 8]` table row and
+        // `tmins`, the two stores write the 8 entries of `out` (64 bytes, `Entry` is repr(C)).
+        unsafe {
+            use std::arch::x86_64::*;
+            let rank = INNER_RANK[node.imask as usize].as_ptr() as *const __m128i;
+            let pack = PACK[inner as usize & 0xff].as_ptr() as *const __m128i;
+            let idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64(pack));
+            let child = _mm256_add_epi32(
+                _mm256_cvtepu8_epi32(_mm_loadl_epi64(rank)),
+                _mm256_set1_epi32(node.child_base_idx as i32),
+            );
+            let child = _mm256_permutevar8x32_epi32(child, idx);
+            let t = _mm256_castps_si256(_mm256_permutevar8x32_ps(
+                _mm256_loadu_ps(tmins.as_ptr()),
+                idx,
+            ));
+            // (node, t) pairs: unpack within 128-bit halves, then put the halves in order
+            let lo = _mm256_unpacklo_epi32(child, t);
+            let hi = _mm256_unpackhi_epi32(child, t);
+            let dst = out.as_mut_ptr() as *mut __m256i;
+            _mm256_storeu_si256(dst, _mm256_permute2x128_si256::<0x20>(lo, hi));
+            _mm256_storeu_si256(dst.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
+        }
+        return;
+    }
+    let (rank, pack) = (
+        &INNER_RANK[node.imask as usize],
+        &PACK[inner as usize & 0xff],
+    );
+    for (o, &i) in out.iter_mut().zip(pack) {
+        let i = i as usize;
+        *o = MaybeUninit::new(Entry {
+            node: node.child_base_idx + rank[i] as u32,
+            t: tmins[i],
+        });
+    }
+}
+
+/// Order traversal entries far to near by entry distance, stably (entries of equal distance
+/// keep their slot order, so the later slot is visited first). Two entries, the common case,
+/// take one compare and no branch.
+#[inline(always)]
+fn sort_far_to_near(s: &mut [Entry]) {
+    if s.len() == 2 {
+        let (a, b) = (s[0], s[1]);
+        let swap = a.t < b.t;
+        s[0] = if swap { b } else { a };
+        s[1] = if swap { a } else { b };
+        return;
+    }
+    for k in 1..s.len() {
+        let e = s[k];
+        let mut j = k;
+        while j > 0 && s[j - 1].t < e.t {
+            s[j] = s[j - 1];
+            j -= 1;
+        }
+        s[j] = e;
+    }
+}
+
+/// The lowest of the lanes in `h` (non-empty) with the smallest `t`.
+#[inline(always)]
+fn nearest_lane(mut h: u32, t: &[f32; 8]) -> usize {
+    let mut best = h.trailing_zeros() as usize;
+    h &= h - 1;
+    while h != 0 {
+        let l = h.trailing_zeros() as usize;
+        h &= h - 1;
+        if t[l] < t[best] {
+            best = l;
+        }
+    }
+    best
 }
 
 /// Stack size for the on-stack traversal stack; deeper BVHs use a heap stack.
@@ -784,53 +931,56 @@ impl Accel {
             #[cfg(feature = "bvh-stats")]
             stats::count(0, 1);
             // The node's first packet is needed whenever a leaf child is hit: fetch it while the
-            // boxes are tested.
-            if node.imask != 0xff {
-                prefetch(
-                    self.blocks
-                        .as_ptr()
-                        .wrapping_add(node.primitive_base_idx as usize / 8),
-                    5,
-                );
-            }
-            let mut hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
-            // Leaves first (they can shrink t_best before the inner children are ordered).
-            let mut inner = [Entry::default(); 8];
-            let mut n_inner = 0;
-            let mut leaves = 0u32;
-            while hits != 0 {
-                let i = hits.trailing_zeros() as usize;
-                hits &= hits - 1;
-                let meta = node.child_meta[i];
-                if is_inner(meta) {
-                    inner[n_inner] = Entry {
-                        node: inner_child(node, meta),
-                        t: tmins[i],
-                    };
-                    n_inner += 1;
-                } else if tmins[i] <= t_best {
-                    leaves |= leaf_lanes(meta);
+            // boxes are tested (nodes without leaves point at packet 0, without a branch).
+            let has_leaves = (node.imask != 0xff) as usize;
+            prefetch(
+                self.blocks
+                    .as_ptr()
+                    .wrapping_add(has_leaves * (node.primitive_base_idx as usize / 8)),
+                5,
+            );
+            let hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
+            // `imask` marks the internal slots; every hit child has its entry distance <= t_best.
+            let inner_hits = hits & node.imask as u32;
+            let mut leaf_hits = hits & !(node.imask as u32);
+            // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
+            // load while the leaves are tested.
+            let n_inner = inner_hits.count_ones() as usize;
+            if n_inner > 0 {
+                write_inner::<AVX>(node, inner_hits, &tmins, &mut stack[sp..sp + 8]);
+                // the first two (all 8 entries are written; a prefetch never faults)
+                for k in 0..2 {
+                    // SAFETY: written just above.
+                    let e = unsafe { stack[sp + k].assume_init() };
+                    prefetch(nodes.as_ptr().wrapping_add(e.node as usize), 2);
                 }
             }
-            // The next nodes' boxes load while the leaves are tested.
-            for e in &inner[..n_inner] {
-                prefetch(nodes.as_ptr().wrapping_add(e.node as usize), 2);
-            }
-            // All hit leaf children at once: one packet test per 8 lanes; the nearest hit wins,
-            // the lowest lane on ties.
-            let base = node.primitive_base_idx as usize;
-            while leaves != 0 {
-                let k = leaves.trailing_zeros() as usize / 8;
-                let lanes = (leaves >> (8 * k)) & 0xff;
-                leaves &= !(0xff << (8 * k));
-                let b = base / 8 + k;
-                #[cfg(feature = "bvh-stats")]
-                stats::count(1, lanes.count_ones() as u64);
-                let mut h = self.test_block::<MIXED, AVX>(b, lanes, &r, t_best, &mut tuv);
-                while h != 0 {
-                    let l = h.trailing_zeros() as usize;
-                    h &= h - 1;
-                    if tuv[0][l] < t_best {
+            // Leaves first (they can shrink t_best before the inner children are ordered): all
+            // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
+            // lowest lane on ties.
+            if leaf_hits != 0 {
+                let mut leaves = 0u32;
+                while leaf_hits != 0 {
+                    let i = leaf_hits.trailing_zeros() as usize;
+                    leaf_hits &= leaf_hits - 1;
+                    leaves |= leaf_lanes(node.child_meta[i]);
+                }
+                let base = node.primitive_base_idx as usize / 8;
+                while leaves != 0 {
+                    let k = leaves.trailing_zeros() as usize / 8;
+                    let lanes = (leaves >> (8 * k)) & 0xff;
+                    leaves &= !(0xff << (8 * k));
+                    #[cfg(feature = "bvh-stats")]
+                    stats::count(1, lanes.count_ones() as u64);
+                    let b = base + k;
+                    let h = self.test_block::<MIXED, AVX>(b, lanes, &r, t_best, &mut tuv);
+                    if h != 0 {
+                        // every hit is nearer than t_best; one hit is the common case
+                        let l = if h & (h - 1) == 0 {
+                            h.trailing_zeros() as usize
+                        } else {
+                            nearest_lane(h, &tuv[0])
+                        };
                         t_best = tuv[0][l];
                         lane_best = (b * 8 + l) as u32;
                         u_best = tuv[1][l];
@@ -838,26 +988,22 @@ impl Accel {
                     }
                 }
             }
-            // Order inner children far to near (insertion sort, at most 8), push all but the
-            // nearest and descend into that one directly.
-            for k in 1..n_inner {
-                let e = inner[k];
-                let mut j = k;
-                while j > 0 && inner[j - 1].t < e.t {
-                    inner[j] = inner[j - 1];
-                    j -= 1;
+            // The inner children ordered far to near (stable), and the nearest taken off again to
+            // descend into directly. Entries the leaves have put beyond t_best stay and are
+            // skipped when popped.
+            if n_inner > 0 {
+                // SAFETY: the `n_inner` entries from `sp` on were written above.
+                let top = unsafe {
+                    let s = &mut *(&mut stack[sp..sp + n_inner] as *mut [MaybeUninit<Entry>]
+                        as *mut [Entry]);
+                    sort_far_to_near(s);
+                    s[n_inner - 1]
+                };
+                if top.t <= t_best {
+                    sp += n_inner - 1;
+                    cur = top.node;
+                    continue;
                 }
-                inner[j] = e;
-            }
-            if n_inner > 0 && inner[n_inner - 1].t <= t_best {
-                for e in &inner[..n_inner - 1] {
-                    if e.t <= t_best {
-                        stack[sp] = MaybeUninit::new(*e);
-                        sp += 1;
-                    }
-                }
-                cur = inner[n_inner - 1].node;
-                continue;
             }
             // Pop the nearest pending entry still in range.
             loop {
@@ -935,31 +1081,32 @@ impl Accel {
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
-            if node.imask != 0xff {
-                prefetch(
-                    self.blocks
-                        .as_ptr()
-                        .wrapping_add(node.primitive_base_idx as usize / 8),
-                    5,
-                );
+            let has_leaves = (node.imask != 0xff) as usize;
+            prefetch(
+                self.blocks
+                    .as_ptr()
+                    .wrapping_add(has_leaves * (node.primitive_base_idx as usize / 8)),
+                5,
+            );
+            let hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
+            let mut inner_hits = hits & node.imask as u32;
+            let mut leaf_hits = hits & !(node.imask as u32);
+            // inner children on the stack in slot order; the last one is visited next
+            let n_inner = inner_hits.count_ones() as usize;
+            for k in 0..n_inner {
+                let i = inner_hits.trailing_zeros();
+                inner_hits &= inner_hits - 1;
+                let child =
+                    node.child_base_idx + (node.imask as u32 & ((1u32 << i) - 1)).count_ones();
+                prefetch(nodes.as_ptr().wrapping_add(child as usize), 2);
+                stack[sp + k] = MaybeUninit::new(child);
             }
-            let mut hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
-            let mut next = u32::MAX;
+            sp += n_inner;
             let mut leaves = 0u32;
-            while hits != 0 {
-                let i = hits.trailing_zeros() as usize;
-                hits &= hits - 1;
-                let meta = node.child_meta[i];
-                if is_inner(meta) {
-                    if next != u32::MAX {
-                        stack[sp] = MaybeUninit::new(next);
-                        sp += 1;
-                    }
-                    next = inner_child(node, meta);
-                    prefetch(nodes.as_ptr().wrapping_add(next as usize), 2);
-                } else {
-                    leaves |= leaf_lanes(meta);
-                }
+            while leaf_hits != 0 {
+                let i = leaf_hits.trailing_zeros() as usize;
+                leaf_hits &= leaf_hits - 1;
+                leaves |= leaf_lanes(node.child_meta[i]);
             }
             let base = node.primitive_base_idx as usize / 8;
             while leaves != 0 {
@@ -970,15 +1117,12 @@ impl Accel {
                     return true;
                 }
             }
-            if next != u32::MAX {
-                cur = next;
-            } else if sp == 0 {
+            if sp == 0 {
                 return false;
-            } else {
-                sp -= 1;
-                // SAFETY: entries below `sp` have been written.
-                cur = unsafe { stack[sp].assume_init() };
             }
+            sp -= 1;
+            // SAFETY: entries below `sp` have been written.
+            cur = unsafe { stack[sp].assume_init() };
         }
     }
 }
