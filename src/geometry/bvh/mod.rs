@@ -1,5 +1,15 @@
-//! Acceleration structure: one compressed wide BVH8 (`obvhs` CWBVH) over triangles and analytic
-//! spheres.
+//! Acceleration structure: one wide BVH8 over triangles and analytic spheres, built by `obvhs`
+//! as a compressed wide BVH (CWBVH).
+//!
+//! Nodes ([`nodes`]): BVHs of up to [`nodes::FULL_NODES_MAX`] nodes are traced with the child
+//! boxes decoded to full precision ([`nodes::Node8`], 256 bytes a node, no decoding per visit);
+//! larger ones keep the 80-byte CWBVH nodes, whose smaller footprint wins once the nodes no
+//! longer fit in the caches. Both give the same hits.
+//!
+//! Traversal: a visit returns the hit internal slots and the lanes of the hit leaf children;
+//! internal children go onto the stack with one left-pack, ordered far to near, and the nearest
+//! is visited next. Branches depend on the data as little as possible (a mispredicted branch
+//! costs more than a node test).
 //!
 //! Layout: the leaf primitives of one CWBVH node (at most 24, one contiguous range) are stored
 //! together as 8-lane SoA packets ([`TriBlock`], the idea of Embree's `Triangle4v`/`Triangle8v`),
@@ -28,6 +38,9 @@ use obvhs::{
 use std::mem::MaybeUninit;
 
 use super::{Hit, Ray, Sphere, Triangle};
+
+mod nodes;
+use nodes::{Entry, FULL_NODES_MAX, Node8, TRay, Visit, WideNode, is_inner, leaf_lanes};
 
 /// Precomputed primitive record (one per BVH primitive slot).
 ///
@@ -106,330 +119,6 @@ impl Prim {
         } else {
             t_far
         }
-    }
-}
-
-/// Traversal ray: origin, direction, clamped reciprocal direction.
-#[derive(Clone, Copy)]
-struct TRay {
-    o: Vec3A,
-    d: Vec3A,
-    inv_d: Vec3A,
-    /// Byte offsets in a `CwBvhNode` of the near and far child planes per axis (x, y, z): the
-    /// max plane is the near one where the direction is negative. Chosen once per ray, so the
-    /// node test does not branch on the direction.
-    #[cfg(target_arch = "x86_64")]
-    planes: [usize; 6],
-}
-
-impl TRay {
-    #[inline(always)]
-    fn new(ray: &Ray) -> TRay {
-        let d = Vec3A::from(ray.d);
-        // Avoid infinities (0 * inf = NaN in the slab test): clamp tiny components.
-        let safe = |x: f32| {
-            if x.abs() < 1e-20 {
-                1.0 / 1e-20f32.copysign(x)
-            } else {
-                1.0 / x
-            }
-        };
-        TRay {
-            o: Vec3A::from(ray.o),
-            d,
-            inv_d: Vec3A::new(safe(d.x), safe(d.y), safe(d.z)),
-            #[cfg(target_arch = "x86_64")]
-            planes: {
-                use std::mem::offset_of;
-                let axis = |neg: bool, lo: usize, hi: usize| if neg { [hi, lo] } else { [lo, hi] };
-                let [nx, fx] = axis(
-                    d.x < 0.0,
-                    offset_of!(CwBvhNode, child_min_x),
-                    offset_of!(CwBvhNode, child_max_x),
-                );
-                let [ny, fy] = axis(
-                    d.y < 0.0,
-                    offset_of!(CwBvhNode, child_min_y),
-                    offset_of!(CwBvhNode, child_max_y),
-                );
-                let [nz, fz] = axis(
-                    d.z < 0.0,
-                    offset_of!(CwBvhNode, child_min_z),
-                    offset_of!(CwBvhNode, child_max_z),
-                );
-                [nx, fx, ny, fy, nz, fz]
-            },
-        }
-    }
-
-    /// Pointers to the near and far planes of `node`'s children ([`TRay::planes`]), each an
-    /// `[u8; 8]` field of the node.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn planes(&self, node: &CwBvhNode) -> [*const std::arch::x86_64::__m128i; 6] {
-        let base = node as *const CwBvhNode as *const u8;
-        // each offset is that of a field of the node, so every pointer stays inside it
-        self.planes
-            .map(|o| base.wrapping_add(o) as *const std::arch::x86_64::__m128i)
-    }
-}
-
-/// Ray vs. the (up to) 8 quantised child boxes of a CWBVH node, in child-slot order: returns the
-/// mask of hit non-empty slots and writes each slot's entry distance to `tmin_out`. Same box math
-/// as `CwBvhNode::intersect_ray_simd`, but with `tmin = 0` instead of obvhs' hard-coded `1e-4`.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
-    use std::arch::x86_64::*;
-
-    let adj_dir_inv = node.compute_extent() * r.inv_d;
-    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let [nx, fx, ny, fy, nz, fz] = r.planes(node);
-
-    // SAFETY: SSE/SSE2 are part of the x86_64 baseline; the unaligned 8-byte loads read exactly
-    // one `[u8; 8]` field each.
-    unsafe {
-        let zi = _mm_setzero_si128();
-        // 8 quantised u8 planes -> two f32x4 (slots 0..4, 4..8).
-        let q = |p: *const __m128i| {
-            let w = _mm_unpacklo_epi8(_mm_loadl_epi64(p), zi);
-            (
-                _mm_cvtepi32_ps(_mm_unpacklo_epi16(w, zi)),
-                _mm_cvtepi32_ps(_mm_unpackhi_epi16(w, zi)),
-            )
-        };
-        let dx = _mm_set1_ps(adj_dir_inv.x);
-        let dy = _mm_set1_ps(adj_dir_inv.y);
-        let dz = _mm_set1_ps(adj_dir_inv.z);
-        let ox = _mm_set1_ps(adj_orig.x);
-        let oy = _mm_set1_ps(adj_orig.y);
-        let oz = _mm_set1_ps(adj_orig.z);
-        let t = |q: __m128, d: __m128, o: __m128| _mm_add_ps(_mm_mul_ps(q, d), o);
-        let (nx0, nx1) = q(nx);
-        let (ny0, ny1) = q(ny);
-        let (nz0, nz1) = q(nz);
-        let zero = _mm_setzero_ps();
-        let tmin0 = _mm_max_ps(
-            _mm_max_ps(t(nx0, dx, ox), t(ny0, dy, oy)),
-            _mm_max_ps(t(nz0, dz, oz), zero),
-        );
-        let tmin1 = _mm_max_ps(
-            _mm_max_ps(t(nx1, dx, ox), t(ny1, dy, oy)),
-            _mm_max_ps(t(nz1, dz, oz), zero),
-        );
-        let (fx0, fx1) = q(fx);
-        let (fy0, fy1) = q(fy);
-        let (fz0, fz1) = q(fz);
-        let tmax_v = _mm_set1_ps(t_max);
-        let tmax0 = _mm_min_ps(
-            _mm_min_ps(t(fx0, dx, ox), t(fy0, dy, oy)),
-            _mm_min_ps(t(fz0, dz, oz), tmax_v),
-        );
-        let tmax1 = _mm_min_ps(
-            _mm_min_ps(t(fx1, dx, ox), t(fy1, dy, oy)),
-            _mm_min_ps(t(fz1, dz, oz), tmax_v),
-        );
-        _mm_storeu_ps(tmin_out.as_mut_ptr(), tmin0);
-        _mm_storeu_ps(tmin_out.as_mut_ptr().add(4), tmin1);
-        let hit = (_mm_movemask_ps(_mm_cmple_ps(tmin0, tmax0))
-            | (_mm_movemask_ps(_mm_cmple_ps(tmin1, tmax1)) << 4)) as u32;
-        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
-            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
-            zi,
-        )) as u32;
-        hit & !empty & 0xff
-    }
-}
-
-/// AVX2 version of [`intersect_node`] (all 8 slots in one register; same arithmetic, no FMA).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn intersect_node_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
-    use std::arch::x86_64::*;
-
-    let adj_dir_inv = node.compute_extent() * r.inv_d;
-    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let [nx, fx, ny, fy, nz, fz] = r.planes(node);
-    // SAFETY: AVX2 is enabled for this function; the 8-byte loads read one `[u8; 8]` field each.
-    unsafe {
-        let q = |p: *const __m128i| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p)));
-        let t = |p: *const __m128i, d: f32, o: f32| {
-            _mm256_add_ps(_mm256_mul_ps(q(p), _mm256_set1_ps(d)), _mm256_set1_ps(o))
-        };
-        let tmin = _mm256_max_ps(
-            _mm256_max_ps(
-                t(nx, adj_dir_inv.x, adj_orig.x),
-                t(ny, adj_dir_inv.y, adj_orig.y),
-            ),
-            _mm256_max_ps(t(nz, adj_dir_inv.z, adj_orig.z), _mm256_setzero_ps()),
-        );
-        let tmax = _mm256_min_ps(
-            _mm256_min_ps(
-                t(fx, adj_dir_inv.x, adj_orig.x),
-                t(fy, adj_dir_inv.y, adj_orig.y),
-            ),
-            _mm256_min_ps(t(fz, adj_dir_inv.z, adj_orig.z), _mm256_set1_ps(t_max)),
-        );
-        _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
-        let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
-        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
-            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
-            _mm_setzero_si128(),
-        )) as u32;
-        hit & !empty & 0xff
-    }
-}
-
-/// Node test, AVX2 when `AVX` (only instantiated inside AVX2-enabled functions).
-#[inline(always)]
-fn node_test<const AVX: bool>(
-    node: &CwBvhNode,
-    r: &TRay,
-    t_max: f32,
-    tmin_out: &mut [f32; 8],
-) -> u32 {
-    #[cfg(target_arch = "x86_64")]
-    if AVX {
-        // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
-        return unsafe { intersect_node_avx2(node, r, t_max, tmin_out) };
-    }
-    intersect_node(node, r, t_max, tmin_out)
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-#[inline(always)]
-fn intersect_node(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> u32 {
-    let adj_dir_inv = node.compute_extent() * r.inv_d;
-    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let mut hit_mask = 0;
-    for ch in 0..8 {
-        let lo = Vec3A::new(
-            node.child_min_x[ch] as f32,
-            node.child_min_y[ch] as f32,
-            node.child_min_z[ch] as f32,
-        );
-        let hi = Vec3A::new(
-            node.child_max_x[ch] as f32,
-            node.child_max_y[ch] as f32,
-            node.child_max_z[ch] as f32,
-        );
-        let t0 = lo * adj_dir_inv + adj_orig;
-        let t1 = hi * adj_dir_inv + adj_orig;
-        let tmin = t0.min(t1).max_element().max(0.0);
-        let tmax = t0.max(t1).min_element().min(t_max);
-        tmin_out[ch] = tmin;
-        if tmin <= tmax && node.child_meta[ch] != 0 {
-            hit_mask |= 1 << ch;
-        }
-    }
-    hit_mask
-}
-
-/// Is child slot `meta` an internal node? (Internal slots store `24 + slot` in the low 5 bits with
-/// the high bits `001`; leaf slots store a primitive offset < 24.)
-#[inline(always)]
-fn is_inner(meta: u8) -> bool {
-    meta & 0b1_1000 == 0b1_1000
-}
-
-/// Index of the internal child with metadata `meta` of `node`.
-#[inline(always)]
-fn inner_child(node: &CwBvhNode, meta: u8) -> u32 {
-    let slot = (meta & 0b1_1111) - 24;
-    node.child_base_idx + (node.imask as u32 & ((1u32 << slot) - 1)).count_ones()
-}
-
-/// Traversal stack entry: node index and the ray's entry distance into its box.
-#[derive(Clone, Copy, Default)]
-#[repr(C)]
-struct Entry {
-    node: u32,
-    t: f32,
-}
-
-/// Per `imask`: for each slot, the number of internal slots below it (the child's offset from
-/// `child_base_idx` if the slot is internal).
-const INNER_RANK: [[u8; 8]; 256] = {
-    let mut t = [[0u8; 8]; 256];
-    let mut m = 0;
-    while m < 256 {
-        let mut i = 0;
-        while i < 8 {
-            t[m][i] = (m & ((1 << i) - 1)).count_ones() as u8;
-            i += 1;
-        }
-        m += 1;
-    }
-    t
-};
-
-/// Per 8-bit mask: its set bits in increasing order, then zeros (the left-packing permutation).
-const PACK: [[u8; 8]; 256] = {
-    let mut t = [[0u8; 8]; 256];
-    let mut m = 0;
-    while m < 256 {
-        let (mut i, mut k) = (0, 0);
-        while i < 8 {
-            if m & (1 << i) != 0 {
-                t[m][k] = i as u8;
-                k += 1;
-            }
-            i += 1;
-        }
-        m += 1;
-    }
-    t
-};
-
-/// Write the entries of `node`'s internal children in `inner` (slot mask) to `out`, in slot
-/// order and without gaps; all 8 entries are written (the rest repeat slot 0's child index and
-/// distance and are not used). Without branches on the mask where AVX2 is used.
-#[inline(always)]
-fn write_inner<const AVX: bool>(
-    node: &CwBvhNode,
-    inner: u32,
-    tmins: &[f32; 8],
-    out: &mut [MaybeUninit<Entry>],
-) {
-    let out = &mut out[..8];
-    #[cfg(target_arch = "x86_64")]
-    if AVX {
-        // SAFETY: `AVX` is only true on the AVX2 path; the loads read one `[u8; 8]` table row and
-        // `tmins`, the two stores write the 8 entries of `out` (64 bytes, `Entry` is repr(C)).
-        unsafe {
-            use std::arch::x86_64::*;
-            let rank = INNER_RANK[node.imask as usize].as_ptr() as *const __m128i;
-            let pack = PACK[inner as usize & 0xff].as_ptr() as *const __m128i;
-            let idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64(pack));
-            let child = _mm256_add_epi32(
-                _mm256_cvtepu8_epi32(_mm_loadl_epi64(rank)),
-                _mm256_set1_epi32(node.child_base_idx as i32),
-            );
-            let child = _mm256_permutevar8x32_epi32(child, idx);
-            let t = _mm256_castps_si256(_mm256_permutevar8x32_ps(
-                _mm256_loadu_ps(tmins.as_ptr()),
-                idx,
-            ));
-            // (node, t) pairs: unpack within 128-bit halves, then put the halves in order
-            let lo = _mm256_unpacklo_epi32(child, t);
-            let hi = _mm256_unpackhi_epi32(child, t);
-            let dst = out.as_mut_ptr() as *mut __m256i;
-            _mm256_storeu_si256(dst, _mm256_permute2x128_si256::<0x20>(lo, hi));
-            _mm256_storeu_si256(dst.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
-        }
-        return;
-    }
-    let (rank, pack) = (
-        &INNER_RANK[node.imask as usize],
-        &PACK[inner as usize & 0xff],
-    );
-    for (o, &i) in out.iter_mut().zip(pack) {
-        let i = i as usize;
-        *o = MaybeUninit::new(Entry {
-            node: node.child_base_idx + rank[i] as u32,
-            t: tmins[i],
-        });
     }
 }
 
@@ -523,15 +212,37 @@ struct FlatBlock {
     n: [[f32; 8]; 3],
 }
 
-/// Lanes (node-relative, bits 0..24) of the leaf child with metadata `meta`.
-#[inline(always)]
-fn leaf_lanes(meta: u8) -> u32 {
-    ((1u32 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111)
+/// The BVH's nodes in one of the two layouts of [`nodes`]: full precision while they fit in
+/// the caches, the compressed CWBVH nodes beyond.
+enum Nodes {
+    Full(Vec<Node8>),
+    Compressed(Vec<CwBvhNode>),
+}
+
+impl Nodes {
+    fn len(&self) -> usize {
+        match self {
+            Nodes::Full(n) => n.len(),
+            Nodes::Compressed(n) => n.len(),
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn bytes(&self) -> usize {
+        match self {
+            Nodes::Full(n) => std::mem::size_of_val(&n[..]),
+            Nodes::Compressed(n) => std::mem::size_of_val(&n[..]),
+        }
+    }
 }
 
 /// The scene's acceleration structure (triangles and spheres in one CWBVH).
 pub struct Accel {
-    bvh: CwBvh,
+    /// The nodes (root first), in the layout that suits the BVH's size.
+    nodes: Nodes,
     /// The nodes' leaf primitives, 8 lanes a packet; node `n`'s lanes start at
     /// `n.primitive_base_idx` (a multiple of 8).
     blocks: Vec<TriBlock>,
@@ -561,12 +272,25 @@ impl Accel {
         params: BvhBuildParams,
         pre_split: bool,
     ) -> Accel {
+        Self::build_with_layout(triangles, spheres, params, pre_split, None)
+    }
+
+    /// [`Accel::build_with`] with the node layout forced (`full`: [`Node8`] or compressed;
+    /// `None`: by size, [`FULL_NODES_MAX`]).
+    #[doc(hidden)]
+    pub fn build_with_layout(
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        params: BvhBuildParams,
+        pre_split: bool,
+        full: Option<bool>,
+    ) -> Accel {
         let n_tris = triangles.len();
         let n = n_tris + spheres.len();
         assert!(n < u32::MAX as usize, "too many primitives");
         if n == 0 {
             return Accel {
-                bvh: CwBvh::default(),
+                nodes: Nodes::Compressed(Vec::new()),
                 blocks: Vec::new(),
                 sphere_lanes: Vec::new(),
                 n_tris: 0,
@@ -658,8 +382,14 @@ impl Accel {
             pack_leaves(&mut bvh, &ids, n_tris as u32, !spheres.is_empty(), prim);
 
         let stack_size = 7 * cwbvh_depth(&bvh) + 1;
+        let nodes = if full.unwrap_or(bvh.nodes.len() <= FULL_NODES_MAX) {
+            Nodes::Full(bvh.nodes.iter().map(Node8::from_cwbvh).collect())
+        } else {
+            Nodes::Compressed(std::mem::take(&mut bvh.nodes))
+        };
+        drop(bvh);
         Accel {
-            bvh,
+            nodes,
             blocks,
             sphere_lanes,
             n_tris: n_tris as u32,
@@ -679,10 +409,9 @@ impl Accel {
             .flat_map(|b| b.ids)
             .filter(|&i| i != u32::MAX)
             .count();
-        let bytes = std::mem::size_of_val(&self.bvh.nodes[..])
-            + std::mem::size_of_val(&self.blocks[..])
-            + self.sphere_lanes.len();
-        (self.bvh.nodes.len(), self.blocks.len(), used, bytes)
+        let bytes =
+            self.nodes.bytes() + std::mem::size_of_val(&self.blocks[..]) + self.sphere_lanes.len();
+        (self.nodes.len(), self.blocks.len(), used, bytes)
     }
 
     pub fn num_primitives(&self) -> usize {
@@ -693,7 +422,7 @@ impl Accel {
     /// (u, v = barycentrics of v1 and v2), then spheres (u, v unused, 0).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+        if self.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
@@ -715,16 +444,29 @@ impl Accel {
 
     #[inline(always)]
     fn intersect_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        match &self.nodes {
+            Nodes::Full(n) => self.intersect_stack::<Node8, AVX>(n, ray, t_max),
+            Nodes::Compressed(n) => self.intersect_stack::<CwBvhNode, AVX>(n, ray, t_max),
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_stack<N: WideNode, const AVX: bool>(
+        &self,
+        nodes: &[N],
+        ray: &Ray,
+        t_max: f32,
+    ) -> Option<Hit> {
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.intersect_impl::<false, AVX>(ray, t_max, &mut stack)
+                self.intersect_impl::<N, false, AVX>(nodes, ray, t_max, &mut stack)
             } else {
-                self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
+                self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
             }
         } else {
             let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
-            self.intersect_impl::<true, AVX>(ray, t_max, &mut stack)
+            self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
         }
     }
 
@@ -910,14 +652,14 @@ impl Accel {
     /// children are visited nearest first (sorted by entry distance), and popped entries farther
     /// than the current hit are skipped.
     #[inline(always)]
-    fn intersect_impl<const MIXED: bool, const AVX: bool>(
+    fn intersect_impl<N: WideNode, const MIXED: bool, const AVX: bool>(
         &self,
+        nodes: &[N],
         ray: &Ray,
         t_max: f32,
         stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
         let r = TRay::new(ray);
-        let nodes = &self.bvh.nodes[..];
         let mut t_best = t_max;
         let mut lane_best = u32::MAX;
         let (mut u_best, mut v_best) = (0.0, 0.0);
@@ -932,40 +674,35 @@ impl Accel {
             stats::count(0, 1);
             // The node's first packet is needed whenever a leaf child is hit: fetch it while the
             // boxes are tested (nodes without leaves point at packet 0, without a branch).
-            let has_leaves = (node.imask != 0xff) as usize;
+            let has_leaves = node.has_leaves() as usize;
             prefetch(
                 self.blocks
                     .as_ptr()
-                    .wrapping_add(has_leaves * (node.primitive_base_idx as usize / 8)),
+                    .wrapping_add(has_leaves * node.packet_base()),
                 5,
             );
-            let hits = node_test::<AVX>(node, &r, t_best, &mut tmins);
-            // `imask` marks the internal slots; every hit child has its entry distance <= t_best.
-            let inner_hits = hits & node.imask as u32;
-            let mut leaf_hits = hits & !(node.imask as u32);
+            // Every hit child has its entry distance <= t_best.
+            let Visit {
+                inner: inner_hits,
+                mut leaves,
+            } = node.visit::<AVX>(&r, t_best, &mut tmins);
             // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
             // load while the leaves are tested.
             let n_inner = inner_hits.count_ones() as usize;
             if n_inner > 0 {
-                write_inner::<AVX>(node, inner_hits, &tmins, &mut stack[sp..sp + 8]);
+                node.write_inner::<AVX>(inner_hits, &tmins, &mut stack[sp..sp + 8]);
                 // the first two (all 8 entries are written; a prefetch never faults)
                 for k in 0..2 {
                     // SAFETY: written just above.
                     let e = unsafe { stack[sp + k].assume_init() };
-                    prefetch(nodes.as_ptr().wrapping_add(e.node as usize), 2);
+                    prefetch(nodes.as_ptr().wrapping_add(e.node as usize), N::LINES);
                 }
             }
             // Leaves first (they can shrink t_best before the inner children are ordered): all
             // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
             // lowest lane on ties.
-            if leaf_hits != 0 {
-                let mut leaves = 0u32;
-                while leaf_hits != 0 {
-                    let i = leaf_hits.trailing_zeros() as usize;
-                    leaf_hits &= leaf_hits - 1;
-                    leaves |= leaf_lanes(node.child_meta[i]);
-                }
-                let base = node.primitive_base_idx as usize / 8;
+            if leaves != 0 {
+                let base = node.packet_base();
                 while leaves != 0 {
                     let k = leaves.trailing_zeros() as usize / 8;
                     let lanes = (leaves >> (8 * k)) & 0xff;
@@ -1029,7 +766,7 @@ impl Accel {
     /// Any hit with t in (0, t_max).
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        if self.bvh.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+        if self.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
         #[cfg(target_arch = "x86_64")]
@@ -1051,29 +788,42 @@ impl Accel {
 
     #[inline(always)]
     fn occluded_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> bool {
+        match &self.nodes {
+            Nodes::Full(n) => self.occluded_stack::<Node8, AVX>(n, ray, t_max),
+            Nodes::Compressed(n) => self.occluded_stack::<CwBvhNode, AVX>(n, ray, t_max),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_stack<N: WideNode, const AVX: bool>(
+        &self,
+        nodes: &[N],
+        ray: &Ray,
+        t_max: f32,
+    ) -> bool {
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.occluded_impl::<false, AVX>(ray, t_max, &mut stack)
+                self.occluded_impl::<N, false, AVX>(nodes, ray, t_max, &mut stack)
             } else {
-                self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
+                self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
             }
         } else {
             let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
-            self.occluded_impl::<true, AVX>(ray, t_max, &mut stack)
+            self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
         }
     }
 
     /// Any-hit traversal: no ordering, exit on the first hit.
     #[inline(always)]
-    fn occluded_impl<const MIXED: bool, const AVX: bool>(
+    fn occluded_impl<N: WideNode, const MIXED: bool, const AVX: bool>(
         &self,
+        nodes: &[N],
         ray: &Ray,
         t_max: f32,
         stack: &mut [MaybeUninit<u32>],
     ) -> bool {
         let r = TRay::new(ray);
-        let nodes = &self.bvh.nodes[..];
         let mut sp = 0usize;
         let mut cur = 0u32;
         let mut tmins = [0.0f32; 8];
@@ -1081,34 +831,24 @@ impl Accel {
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
-            let has_leaves = (node.imask != 0xff) as usize;
+            let has_leaves = node.has_leaves() as usize;
             prefetch(
                 self.blocks
                     .as_ptr()
-                    .wrapping_add(has_leaves * (node.primitive_base_idx as usize / 8)),
+                    .wrapping_add(has_leaves * node.packet_base()),
                 5,
             );
-            let hits = node_test::<AVX>(node, &r, t_max, &mut tmins);
-            let mut inner_hits = hits & node.imask as u32;
-            let mut leaf_hits = hits & !(node.imask as u32);
+            let Visit { inner, mut leaves } = node.visit::<AVX>(&r, t_max, &mut tmins);
             // inner children on the stack in slot order; the last one is visited next
-            let n_inner = inner_hits.count_ones() as usize;
-            for k in 0..n_inner {
-                let i = inner_hits.trailing_zeros();
-                inner_hits &= inner_hits - 1;
-                let child =
-                    node.child_base_idx + (node.imask as u32 & ((1u32 << i) - 1)).count_ones();
-                prefetch(nodes.as_ptr().wrapping_add(child as usize), 2);
+            let mut m = inner;
+            for k in 0..inner.count_ones() as usize {
+                let child = node.inner_child(m.trailing_zeros() as usize);
+                m &= m - 1;
+                prefetch(nodes.as_ptr().wrapping_add(child as usize), N::LINES);
                 stack[sp + k] = MaybeUninit::new(child);
             }
-            sp += n_inner;
-            let mut leaves = 0u32;
-            while leaf_hits != 0 {
-                let i = leaf_hits.trailing_zeros() as usize;
-                leaf_hits &= leaf_hits - 1;
-                leaves |= leaf_lanes(node.child_meta[i]);
-            }
-            let base = node.primitive_base_idx as usize / 8;
+            sp += inner.count_ones() as usize;
+            let base = node.packet_base();
             while leaves != 0 {
                 let k = leaves.trailing_zeros() as usize / 8;
                 let lanes = (leaves >> (8 * k)) & 0xff;
@@ -1335,9 +1075,12 @@ fn cwbvh_depth(bvh: &CwBvh) -> usize {
     while let Some((n, d)) = todo.pop() {
         max = max.max(d);
         let node = &bvh.nodes[n as usize];
-        for &meta in &node.child_meta {
+        for (i, &meta) in node.child_meta.iter().enumerate() {
             if meta != 0 && is_inner(meta) {
-                todo.push((inner_child(node, meta), d + 1));
+                // an internal child's slot number (meta − 24) is its position, as the
+                // traversal assumes
+                debug_assert_eq!(meta as usize & 0b1_1111, 24 + i);
+                todo.push((node.inner_child(i), d + 1));
             }
         }
     }
@@ -1432,9 +1175,19 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(seed);
         let accel = Accel::build(tris, spheres);
         assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
-        // The portable (SSE2) traversal must agree with the AVX2 one where both exist.
-        let mut portable = Accel::build(tris, spheres);
-        portable.avx2 = false;
+        // Both node layouts, and the portable traversal, must agree with the AVX2 one where
+        // both exist.
+        let layout = |full: bool, avx2: bool| {
+            let params = BvhBuildParams::medium_build();
+            let mut a = Accel::build_with_layout(tris, spheres, params, true, Some(full));
+            a.avx2 &= avx2;
+            a
+        };
+        let others = [
+            layout(false, true),
+            layout(true, false),
+            layout(false, false),
+        ];
         let mut hits = 0;
         for k in 0..n_rays {
             // Mix of rays from outside, rays from inside spheres, and short rays.
@@ -1502,16 +1255,18 @@ mod tests {
                 "ray {k}: occlusion"
             );
             let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
-            assert_eq!(
-                key(portable.intersect(&ray, t_max)),
-                key(got),
-                "ray {k}: portable"
-            );
-            assert_eq!(
-                portable.occluded(&ray, t_max),
-                bf.is_some(),
-                "ray {k}: portable occlusion"
-            );
+            for (j, other) in others.iter().enumerate() {
+                assert_eq!(
+                    key(other.intersect(&ray, t_max)),
+                    key(got),
+                    "ray {k}: layout/traversal {j}"
+                );
+                assert_eq!(
+                    other.occluded(&ray, t_max),
+                    bf.is_some(),
+                    "ray {k}: layout/traversal {j}, occlusion"
+                );
+            }
         }
         if n_rays > 100 && tris.len() + spheres.len() > 10 {
             assert!(hits > n_rays / 10, "too few hits to be meaningful: {hits}");
@@ -1532,7 +1287,8 @@ mod tests {
             center: c.center,
             radius: c.radius * (1.0 + 1e-4 * k as f32),
         }));
-        let depth = cwbvh_depth(&Accel::build(&tris, &spheres).bvh);
+        // the traversal stack is sized from the depth: 7 entries per level, plus one
+        let depth = (Accel::build(&tris, &spheres).stack_size - 1) / 7;
         assert!(depth < 40, "depth {depth}");
         check(&tris, &spheres, 2000, 9);
     }
