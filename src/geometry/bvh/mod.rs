@@ -220,6 +220,15 @@ enum Nodes {
 }
 
 impl Nodes {
+    /// The layout for packed CWBVH nodes: `full` forces one, `None` chooses by size.
+    fn new(nodes: Vec<CwBvhNode>, full: Option<bool>) -> Nodes {
+        if full.unwrap_or(nodes.len() <= FULL_NODES_MAX) {
+            Nodes::Full(nodes.iter().map(Node8::from_cwbvh).collect())
+        } else {
+            Nodes::Compressed(nodes)
+        }
+    }
+
     fn len(&self) -> usize {
         match self {
             Nodes::Full(n) => n.len(),
@@ -382,14 +391,8 @@ impl Accel {
             pack_leaves(&mut bvh, &ids, n_tris as u32, !spheres.is_empty(), prim);
 
         let stack_size = 7 * cwbvh_depth(&bvh) + 1;
-        let nodes = if full.unwrap_or(bvh.nodes.len() <= FULL_NODES_MAX) {
-            Nodes::Full(bvh.nodes.iter().map(Node8::from_cwbvh).collect())
-        } else {
-            Nodes::Compressed(std::mem::take(&mut bvh.nodes))
-        };
-        drop(bvh);
         Accel {
-            nodes,
+            nodes: Nodes::new(bvh.nodes, full),
             blocks,
             sphere_lanes,
             n_tris: n_tris as u32,
