@@ -1,22 +1,25 @@
-//! Acceleration structure: one wide BVH8 over triangles and analytic spheres, built by `obvhs`
-//! as a compressed wide BVH (CWBVH).
+//! Acceleration structure: one wide BVH8 over triangles and analytic spheres, from the binary
+//! BVH that `obvhs` builds (PLOC with pre-split triangles, then reinsertion).
 //!
-//! Nodes ([`nodes`]): BVHs of up to [`nodes::FULL_NODES_MAX`] nodes are traced with the child
-//! boxes decoded to full precision ([`nodes::Node8`], 256 bytes a node, no decoding per visit);
-//! larger ones keep the 80-byte CWBVH nodes, whose smaller footprint wins once the nodes no
-//! longer fit in the caches. Both give the same hits.
+//! Nodes ([`nodes`]): the binary BVH is collapsed ([`collapse`]) to 8-wide nodes with the child
+//! boxes in full precision ([`nodes::Node8`], 256 bytes a node, no decoding per visit) and
+//! leaves of up to 8 primitives, one packet each. Where that takes more than
+//! [`nodes::FULL_NODES_MAX`] nodes, `obvhs` converts it to its 80-byte CWBVH nodes instead, whose
+//! smaller footprint pays once the nodes no longer fit in the caches. Both give the same hits
+//! (up to ties between coincident primitives, which they may meet in another order).
 //!
-//! Traversal: a visit returns the hit internal slots and the lanes of the hit leaf children;
+//! Traversal: a visit returns the hit internal slots and the hit leaves;
 //! internal children go onto the stack with one left-pack, ordered far to near, and the nearest
 //! is visited next. Branches depend on the data as little as possible (a mispredicted branch
 //! costs more than a node test).
 //!
-//! Layout: the leaf primitives of one CWBVH node (at most 24, one contiguous range) are stored
-//! together as 8-lane SoA packets ([`TriBlock`], the idea of Embree's `Triangle4v`/`Triangle8v`),
-//! each node's first lane on a packet boundary; the node's `primitive_base_idx` is rewritten to that
-//! lane. A node's hit leaf children become one lane mask, and each packet with a lane in it costs
-//! one branch-free 8-wide Möller–Trumbore, instead of one scalar test per primitive. A lane's
-//! original primitive id is in its packet, so traversal never needs `primitive_indices`.
+//! Leaves: primitives are stored as 8-lane SoA packets ([`TriBlock`], the idea of Embree's
+//! `Triangle4v`/`Triangle8v`), each tested with one branch-free 8-wide Möller–Trumbore instead of
+//! one scalar test per primitive. A full-precision node's leaf is one packet of its own. A CWBVH
+//! node's leaf primitives (at most 24, one contiguous range) are stored together, from a packet
+//! boundary (its `primitive_base_idx` is rewritten to that lane), and its hit leaf children
+//! become one lane mask over them. A lane's original primitive id is in its packet, so
+//! traversal never needs `primitive_indices`.
 //!
 //! Notes on `obvhs` 0.4 (see the report in the commit message):
 //! - `CwBvhNode::intersect_ray` clamps the ray's `tmin` to a hard-coded `1e-4`, so hits closer than
@@ -39,7 +42,9 @@ use std::mem::MaybeUninit;
 
 use super::{Hit, Ray, Sphere, Triangle};
 
+mod collapse;
 mod nodes;
+use collapse::collapse;
 use nodes::{Entry, FULL_NODES_MAX, Node8, TRay, Visit, WideNode, is_inner, leaf_lanes};
 
 /// Precomputed primitive record (one per BVH primitive slot).
@@ -183,6 +188,14 @@ struct TriBlock {
 }
 
 impl TriBlock {
+    /// No primitive in any lane (all zero, which no ray hits; ids `u32::MAX`).
+    const UNUSED: TriBlock = TriBlock {
+        a: [[0.0; 8]; 3],
+        b: [[0.0; 8]; 3],
+        c: [[0.0; 8]; 3],
+        ids: [u32::MAX; 8],
+    };
+
     fn set(&mut self, l: usize, p: &Prim) {
         for k in 0..3 {
             self.a[k][l] = p.a[k];
@@ -220,15 +233,6 @@ enum Nodes {
 }
 
 impl Nodes {
-    /// The layout for packed CWBVH nodes: `full` forces one, `None` chooses by size.
-    fn new(nodes: Vec<CwBvhNode>, full: Option<bool>) -> Nodes {
-        if full.unwrap_or(nodes.len() <= FULL_NODES_MAX) {
-            Nodes::Full(nodes.iter().map(Node8::from_cwbvh).collect())
-        } else {
-            Nodes::Compressed(nodes)
-        }
-    }
-
     fn len(&self) -> usize {
         match self {
             Nodes::Full(n) => n.len(),
@@ -371,35 +375,67 @@ impl Accel {
         drop(aabbs);
         bvh2.uses_spatial_splits = pre_split;
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-        let mut bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
-        drop(bvh2);
-
-        let mut ids = std::mem::take(&mut bvh.primitive_indices);
-        for id in ids.iter_mut() {
-            *id = piece_to_prim[*id as usize];
-        }
-        drop(piece_to_prim);
-        let prim = |id: u32| {
-            let id = id as usize;
-            if id < n_tris {
-                Prim::triangle(&triangles[id])
-            } else {
-                Prim::sphere(&spheres[id - n_tris])
-            }
-        };
-        let (blocks, sphere_lanes) =
-            pack_leaves(&mut bvh, &ids, n_tris as u32, !spheres.is_empty(), prim);
-
-        let stack_size = 7 * cwbvh_depth(&bvh) + 1;
+        let (nodes, (blocks, sphere_lanes), depth) =
+            Self::wide(&bvh2, &piece_to_prim, triangles, spheres, params, full);
         Accel {
-            nodes: Nodes::new(bvh.nodes, full),
+            nodes,
             blocks,
             sphere_lanes,
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
-            stack_size,
+            stack_size: 7 * depth + 1,
             avx2: has_avx2(),
             flat: Self::flat_blocks(triangles, spheres),
+        }
+    }
+
+    /// The 8-wide nodes and the leaf packets for the binary BVH over primitive pieces
+    /// (`piece_to_prim`), in the layout `full` asks for (`None`: by size), and the tree's depth.
+    fn wide(
+        bvh2: &obvhs::bvh2::Bvh2,
+        piece_to_prim: &[u32],
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        params: BvhBuildParams,
+        full: Option<bool>,
+    ) -> (Nodes, (Vec<TriBlock>, Vec<u8>), usize) {
+        let n_tris = triangles.len();
+        let mixed = !spheres.is_empty();
+        let prim = |piece: u32| {
+            let id = piece_to_prim[piece as usize];
+            let p = id as usize;
+            let p = if p < n_tris {
+                Prim::triangle(&triangles[p])
+            } else {
+                Prim::sphere(&spheres[p - n_tris])
+            };
+            (id, p)
+        };
+        let max_full = if full == Some(true) {
+            usize::MAX
+        } else {
+            FULL_NODES_MAX
+        };
+        let collapsed = (full != Some(false))
+            .then(|| collapse(bvh2, max_full))
+            .flatten();
+        match collapsed {
+            Some(c) => {
+                let leaves = c
+                    .leaves
+                    .iter()
+                    .map(|slots| slots.iter().map(|&s| bvh2.primitive_indices[s as usize]));
+                let packets = pack_collapsed(leaves, n_tris as u32, mixed, prim);
+                (Nodes::Full(c.nodes), packets, c.depth)
+            }
+            None => {
+                let mut bvh =
+                    bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
+                let pieces = std::mem::take(&mut bvh.primitive_indices);
+                let packets = pack_leaves(&mut bvh, &pieces, n_tris as u32, mixed, prim);
+                let depth = cwbvh_depth(&bvh);
+                (Nodes::Compressed(bvh.nodes), packets, depth)
+            }
         }
     }
 
@@ -677,17 +713,11 @@ impl Accel {
             stats::count(0, 1);
             // The node's first packet is needed whenever a leaf child is hit: fetch it while the
             // boxes are tested (nodes without leaves point at packet 0, without a branch).
-            let has_leaves = node.has_leaves() as usize;
-            prefetch(
-                self.blocks
-                    .as_ptr()
-                    .wrapping_add(has_leaves * node.packet_base()),
-                5,
-            );
+            node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
             // Every hit child has its entry distance <= t_best.
             let Visit {
                 inner: inner_hits,
-                mut leaves,
+                leaves,
             } = node.visit::<AVX>(&r, t_best, &mut tmins);
             // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
             // load while the leaves are tested.
@@ -705,14 +735,9 @@ impl Accel {
             // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
             // lowest lane on ties.
             if leaves != 0 {
-                let base = node.packet_base();
-                while leaves != 0 {
-                    let k = leaves.trailing_zeros() as usize / 8;
-                    let lanes = (leaves >> (8 * k)) & 0xff;
-                    leaves &= !(0xff << (8 * k));
+                node.leaf_packets(leaves, |b, lanes| {
                     #[cfg(feature = "bvh-stats")]
                     stats::count(1, lanes.count_ones() as u64);
-                    let b = base + k;
                     let h = self.test_block::<MIXED, AVX>(b, lanes, &r, t_best, &mut tuv);
                     if h != 0 {
                         // every hit is nearer than t_best; one hit is the common case
@@ -726,7 +751,8 @@ impl Accel {
                         u_best = tuv[1][l];
                         v_best = tuv[2][l];
                     }
-                }
+                    false
+                });
             }
             // The inner children ordered far to near (stable), and the nearest taken off again to
             // descend into directly. Entries the leaves have put beyond t_best stay and are
@@ -834,14 +860,8 @@ impl Accel {
         loop {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
-            let has_leaves = node.has_leaves() as usize;
-            prefetch(
-                self.blocks
-                    .as_ptr()
-                    .wrapping_add(has_leaves * node.packet_base()),
-                5,
-            );
-            let Visit { inner, mut leaves } = node.visit::<AVX>(&r, t_max, &mut tmins);
+            node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
+            let Visit { inner, leaves } = node.visit::<AVX>(&r, t_max, &mut tmins);
             // inner children on the stack in slot order; the last one is visited next
             let mut m = inner;
             for k in 0..inner.count_ones() as usize {
@@ -851,14 +871,11 @@ impl Accel {
                 stack[sp + k] = MaybeUninit::new(child);
             }
             sp += inner.count_ones() as usize;
-            let base = node.packet_base();
-            while leaves != 0 {
-                let k = leaves.trailing_zeros() as usize / 8;
-                let lanes = (leaves >> (8 * k)) & 0xff;
-                leaves &= !(0xff << (8 * k));
-                if self.test_block::<MIXED, AVX>(base + k, lanes, &r, t_max, &mut tuv) != 0 {
-                    return true;
-                }
+            let hit = |b: usize, lanes: u32| {
+                self.test_block::<MIXED, AVX>(b, lanes, &r, t_max, &mut tuv) != 0
+            };
+            if leaves != 0 && node.leaf_packets(leaves, hit) {
+                return true;
             }
             if sp == 0 {
                 return false;
@@ -875,17 +892,13 @@ impl Accel {
 /// Returns the packets and the sphere lanes per packet (if `mixed`).
 fn pack_leaves(
     bvh: &mut CwBvh,
-    slot_ids: &[u32],
+    pieces: &[u32],
     n_tris: u32,
     mixed: bool,
-    prim: impl Fn(u32) -> Prim,
+    prim: impl Fn(u32) -> (u32, Prim),
 ) -> (Vec<TriBlock>, Vec<u8>) {
-    let mut blocks: Vec<TriBlock> = Vec::with_capacity(slot_ids.len() / 4 + 1);
+    let mut blocks: Vec<TriBlock> = Vec::with_capacity(pieces.len() / 4 + 1);
     let mut sphere_lanes = Vec::new();
-    let unused = TriBlock {
-        ids: [u32::MAX; 8],
-        ..Default::default()
-    };
     for node in bvh.nodes.iter_mut() {
         let n = node
             .child_meta
@@ -900,17 +913,50 @@ fn pack_leaves(
         let old = node.primitive_base_idx as usize;
         let first = blocks.len();
         node.primitive_base_idx = (first * 8) as u32;
-        blocks.resize(first + n.div_ceil(8), unused);
+        blocks.resize(first + n.div_ceil(8), TriBlock::UNUSED);
         if mixed {
             sphere_lanes.resize(blocks.len(), 0);
         }
-        for (j, &id) in slot_ids[old..old + n].iter().enumerate() {
+        for (j, &piece) in pieces[old..old + n].iter().enumerate() {
             let (b, l) = (first + j / 8, j % 8);
-            blocks[b].set(l, &prim(id));
+            let (id, p) = prim(piece);
+            blocks[b].set(l, &p);
             blocks[b].ids[l] = id;
             if mixed && id >= n_tris {
                 sphere_lanes[b] |= 1 << l;
             }
+        }
+    }
+    (blocks, sphere_lanes)
+}
+
+/// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the leaf's pieces (a
+/// primitive split into several pieces of one leaf takes one lane).
+fn pack_collapsed<L: Iterator<Item = u32>>(
+    leaves: impl ExactSizeIterator<Item = L>,
+    n_tris: u32,
+    mixed: bool,
+    prim: impl Fn(u32) -> (u32, Prim),
+) -> (Vec<TriBlock>, Vec<u8>) {
+    let mut blocks = vec![TriBlock::UNUSED; leaves.len()];
+    let mut sphere_lanes = if mixed {
+        vec![0; blocks.len()]
+    } else {
+        Vec::new()
+    };
+    for (b, pieces) in leaves.enumerate() {
+        let mut l = 0;
+        for piece in pieces {
+            let (id, p) = prim(piece);
+            if blocks[b].ids[..l].contains(&id) {
+                continue;
+            }
+            blocks[b].set(l, &p);
+            blocks[b].ids[l] = id;
+            if mixed && id >= n_tris {
+                sphere_lanes[b] |= 1 << l;
+            }
+            l += 1;
         }
     }
     (blocks, sphere_lanes)
@@ -1220,12 +1266,12 @@ mod tests {
                 f32::INFINITY
             };
             let bf = brute_force_intersect(tris, spheres, &ray, t_max);
-            let got = accel.intersect(&ray, t_max);
-            match (bf, got) {
+            // the closest hit, or one at the same distance (a tie between coincident primitives;
+            // the two layouts may meet them in another order)
+            let verify = |got: Option<Hit>, what: &str| match (bf, got) {
                 (None, None) => {}
                 (Some(a), Some(b)) => {
-                    hits += 1;
-                    assert_eq!(a.t, b.t, "ray {k}: t mismatch {a:?} vs {b:?}");
+                    assert_eq!(a.t, b.t, "ray {k} ({what}): t mismatch {a:?} vs {b:?}");
                     if a.prim != b.prim {
                         // tie: the reported primitive must have the same distance
                         let only = |p: u32| {
@@ -1237,9 +1283,9 @@ mod tests {
                                 brute_force_intersect(&[], &spheres[s..s + 1], &ray, t_max)
                             }
                         };
-                        assert_eq!(only(b.prim).map(|h| h.t), Some(a.t), "ray {k}");
+                        assert_eq!(only(b.prim).map(|h| h.t), Some(a.t), "ray {k} ({what})");
                     }
-                    assert_eq!((a.u, a.v), (b.u, b.v), "ray {k}");
+                    assert_eq!((a.u, a.v), (b.u, b.v), "ray {k} ({what})");
                     if (b.prim as usize) < tris.len() {
                         let p = tris[b.prim as usize].point(b.u, b.v);
                         let q = ray.at(b.t);
@@ -1250,24 +1296,26 @@ mod tests {
                         assert!((dist - s.radius).abs() < 1e-3 * (1.0 + s.radius));
                     }
                 }
-                (a, b) => panic!("ray {k}: brute force {a:?}, bvh {b:?}"),
-            }
-            assert_eq!(
-                accel.occluded(&ray, t_max),
-                bf.is_some(),
-                "ray {k}: occlusion"
-            );
+                (a, b) => panic!("ray {k} ({what}): brute force {a:?}, bvh {b:?}"),
+            };
+            let got = accel.intersect(&ray, t_max);
+            hits += got.is_some() as usize;
+            verify(got, "default");
+            let compressed = others[0].intersect(&ray, t_max);
+            verify(compressed, "compressed nodes");
+            // the portable traversal takes the AVX2 one's path exactly
             let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
-            for (j, other) in others.iter().enumerate() {
+            assert_eq!(key(others[1].intersect(&ray, t_max)), key(got), "ray {k}");
+            assert_eq!(
+                key(others[2].intersect(&ray, t_max)),
+                key(compressed),
+                "ray {k}"
+            );
+            for (j, a) in std::iter::once(&accel).chain(&others).enumerate() {
                 assert_eq!(
-                    key(other.intersect(&ray, t_max)),
-                    key(got),
-                    "ray {k}: layout/traversal {j}"
-                );
-                assert_eq!(
-                    other.occluded(&ray, t_max),
+                    a.occluded(&ray, t_max),
                     bf.is_some(),
-                    "ray {k}: layout/traversal {j}, occlusion"
+                    "ray {k} ({j}): occlusion"
                 );
             }
         }

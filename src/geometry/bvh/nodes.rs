@@ -1,22 +1,27 @@
-//! The two node layouts of the BVH8 and their visits: [`Node8`], the CWBVH node decoded to full
-//! precision (Embree's `AABBNode8` layout, 256 bytes), and the compressed CWBVH node itself
-//! (`obvhs`' `CwBvhNode`, 80 bytes, child boxes quantised to 8 bits). A visit tests the ray
-//! against the 8 child boxes and returns the hit internal slots and the lanes of the hit leaf
-//! children, without a branch per child where AVX2 is used.
+//! The two node layouts of the BVH8 and their visits: [`Node8`], full-precision child boxes
+//! (Embree's `AABBNode8` layout, 256 bytes) in the tree of [`super::collapse`] with leaves of up
+//! to 8 primitives, one packet each; and the compressed CWBVH node of `obvhs` (`CwBvhNode`, 80
+//! bytes, child boxes quantised to 8 bits, leaves of up to 3 primitives sharing the node's
+//! packets). A visit tests the ray against the 8 child boxes and returns the hit internal slots
+//! and the hit leaves, without a branch per child where AVX2 is used.
 //!
-//! The full layout needs no decoding (about half the instructions of a visit); the compressed
-//! one touches a third of the memory, which wins once the nodes no longer fit in the caches
-//! ([`FULL_NODES_MAX`]).
+//! The full layout needs no decoding and its tree is shallower; the compressed one touches less
+//! memory, which pays once the nodes no longer fit in the caches ([`FULL_NODES_MAX`]).
 
 use glam::Vec3A;
+use obvhs::aabb::Aabb;
 use obvhs::cwbvh::node::CwBvhNode;
 use std::mem::MaybeUninit;
 
+use super::prefetch;
 use crate::geometry::Ray;
 
+/// Bytes of one leaf packet (`TriBlock`).
+pub(super) const PACKET_BYTES: usize = 320;
+
 /// Largest BVH (in nodes) traced with [`Node8`]: 8 MiB of full nodes. Larger ones keep the
-/// compressed nodes (measured: soup100k, 11 k nodes, 9 % faster with full nodes; the 1M-triangle
-/// sets, 110–140 k nodes, 10–15 % slower).
+/// compressed nodes. Measured: soup100k (4 800 full nodes) 1.3× faster with full nodes; the
+/// 1M-triangle sets (49 000–70 000 full nodes) within the noise of either, soup1m 7 % slower.
 pub(super) const FULL_NODES_MAX: usize = (8 << 20) / std::mem::size_of::<Node8>();
 
 /// Traversal ray: origin, direction, clamped reciprocal direction.
@@ -62,8 +67,8 @@ impl TRay {
     }
 }
 
-/// What a node visit found: the hit internal slots and the lanes of the hit leaf children
-/// (relative to the node's first packet, bits 0..24).
+/// What a node visit found: the hit internal slots and the hit leaves (their meaning is the
+/// layout's: see [`WideNode::leaf_packets`]).
 pub(super) struct Visit {
     pub inner: u32,
     pub leaves: u32,
@@ -81,10 +86,11 @@ pub(super) struct Entry {
 pub(super) trait WideNode {
     /// Cache lines to prefetch for a node.
     const LINES: usize;
-    /// The node's first packet of leaf lanes.
-    fn packet_base(&self) -> usize;
-    /// Whether any slot is a leaf.
-    fn has_leaves(&self) -> bool;
+    /// Ask for the node's leaf packets (`blocks`: the first packet) while the boxes are tested.
+    fn prefetch_leaves(&self, blocks: *const u8);
+    /// Call `f(packet, lanes)` for each packet of the hit leaves `leaves` of a [`Visit`], until
+    /// it returns true (then true).
+    fn leaf_packets(&self, leaves: u32, f: impl FnMut(usize, u32) -> bool) -> bool;
     /// Node index of the internal child in `slot`.
     fn inner_child(&self, slot: usize) -> u32;
     /// Test `r` against the child boxes with t in [0, t_max]; entry distances to `tmin_out`.
@@ -119,69 +125,71 @@ const EMPTY_PLANES: [[f32; 8]; 6] = {
 /// Top bit of [`Node8::child`]: the slot is a leaf.
 const LEAF: u32 = 1 << 31;
 
-/// A BVH8 node: a CWBVH node with its children's boxes decoded once at build time (rounded
-/// outwards, so they contain the quantised boxes) and kept in full precision, plane by plane.
+/// A BVH8 node with its children's boxes in full precision, plane by plane (Embree's
+/// `AABBNode8` layout): a visit needs no decoding. Built by [`super::collapse`]; each leaf child
+/// is one packet of its own.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct Node8 {
     /// Child box planes: min x, max x, min y, max y, min z, max z, each per slot. Empty slots
     /// are inverted (+∞ … −∞) and never hit.
     planes: [[f32; 8]; 6],
-    /// Per slot: an internal child's node index; a leaf child's lanes (relative to
-    /// `packet_base`) with [`LEAF`] set; 0 for an empty slot.
+    /// Per slot: an internal child's node index; a leaf child's packet with [`LEAF`] set; 0 for
+    /// an empty slot.
     child: [u32; 8],
-    packet_base: u32,
-    /// Internal slots.
-    imask: u8,
 }
 
 impl Node8 {
-    /// Decode CWBVH node `n` (leaves packed: `primitive_base_idx` is a packet's first lane).
-    pub fn from_cwbvh(n: &CwBvhNode) -> Node8 {
-        let ext = n.compute_extent();
-        let p = Vec3A::from(n.p);
-        let mut node = Node8 {
+    /// A node without children.
+    pub fn empty() -> Node8 {
+        Node8 {
             planes: EMPTY_PLANES,
             child: [0; 8],
-            packet_base: n.primitive_base_idx / 8,
-            imask: n.imask,
-        };
-        let q = [
-            (&n.child_min_x, &n.child_max_x),
-            (&n.child_min_y, &n.child_max_y),
-            (&n.child_min_z, &n.child_max_z),
-        ];
-        for i in 0..8 {
-            let meta = n.child_meta[i];
-            if meta == 0 {
-                continue;
-            }
-            for (k, (lo, hi)) in q.iter().enumerate() {
-                // p + q·2^e, rounded outwards: the decoded box contains the quantised one
-                node.planes[2 * k][i] = (p[k] + lo[i] as f32 * ext[k]).next_down();
-                node.planes[2 * k + 1][i] = (p[k] + hi[i] as f32 * ext[k]).next_up();
-            }
-            node.child[i] = if is_inner(meta) {
-                n.inner_child(i)
-            } else {
-                LEAF | leaf_lanes(meta)
-            };
         }
-        node
+    }
+
+    /// Slot `slot` holds `aabb`, rounded outwards by one ulp (the boxes of split triangle
+    /// pieces are clipped in floating point).
+    fn set_box(&mut self, slot: usize, aabb: &Aabb) {
+        for k in 0..3 {
+            self.planes[2 * k][slot] = aabb.min[k].next_down();
+            self.planes[2 * k + 1][slot] = aabb.max[k].next_up();
+        }
+    }
+
+    /// Slot `slot` is the leaf `packet` with box `aabb`.
+    pub fn set_leaf(&mut self, slot: usize, aabb: &Aabb, packet: u32) {
+        assert!(packet < LEAF, "too many leaves");
+        self.set_box(slot, aabb);
+        self.child[slot] = LEAF | packet;
+    }
+
+    /// Slot `slot` is the internal node `node` with box `aabb`.
+    pub fn set_inner(&mut self, slot: usize, aabb: &Aabb, node: u32) {
+        self.set_box(slot, aabb);
+        self.child[slot] = node;
     }
 }
 
 impl WideNode for Node8 {
     const LINES: usize = 4;
 
+    /// The first packet is not known without a look at the slots; these BVHs are small.
     #[inline(always)]
-    fn packet_base(&self) -> usize {
-        self.packet_base as usize
-    }
+    fn prefetch_leaves(&self, _blocks: *const u8) {}
 
+    /// `leaves` are the hit leaf slots; each is one packet, all of whose lanes are tested
+    /// (unused lanes never hit).
     #[inline(always)]
-    fn has_leaves(&self) -> bool {
-        self.imask != 0xff
+    fn leaf_packets(&self, mut leaves: u32, mut f: impl FnMut(usize, u32) -> bool) -> bool {
+        while leaves != 0 {
+            let i = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            if f((self.child[i] & !LEAF) as usize, 0xff) {
+                return true;
+            }
+        }
+        false
     }
 
     #[inline(always)]
@@ -206,9 +214,9 @@ impl WideNode for Node8 {
             let tmin = max_ps(max_ps(t(nx, 0), t(ny, 1)), max_ps(t(nz, 2), 0.0));
             let tmax = min_ps(min_ps(t(fx, 0), t(fy, 1)), min_ps(t(fz, 2), t_max));
             tmin_out[i] = tmin;
-            if tmin <= tmax {
+            if tmin <= tmax && self.child[i] != 0 {
                 if self.child[i] & LEAF != 0 {
-                    leaves |= self.child[i] & !LEAF;
+                    leaves |= 1 << i;
                 } else {
                     inner |= 1 << i;
                 }
@@ -270,28 +278,14 @@ fn visit_full_avx2(node: &Node8, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) 
             _mm256_min_ps(t(fz, o.z, inv.z), _mm256_set1_ps(t_max)),
         );
         _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
-        let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax));
-        let child = _mm256_loadu_si256(node.child.as_ptr() as *const __m256i);
-        let leaf = _mm256_srai_epi32::<31>(child);
-        let inner = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_andnot_si256(leaf, hit))) as u32;
-        let lanes = _mm256_and_si256(child, _mm256_and_si256(leaf, hit));
+        let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
+        // the sign bits of `child` are the leaf slots
+        let leaf = _mm256_movemask_ps(_mm256_loadu_ps(node.child.as_ptr() as *const f32)) as u32;
         Visit {
-            inner,
-            leaves: or_lanes(lanes) & !LEAF,
+            inner: hit & !leaf,
+            leaves: hit & leaf,
         }
     }
-}
-
-/// The OR of 8 u32 lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn or_lanes(x: std::arch::x86_64::__m256i) -> u32 {
-    use std::arch::x86_64::*;
-    let x = _mm_or_si128(_mm256_castsi256_si128(x), _mm256_extracti128_si256::<1>(x));
-    let x = _mm_or_si128(x, _mm_shuffle_epi32::<0b01_00_11_10>(x));
-    let x = _mm_or_si128(x, _mm_shuffle_epi32::<0b10_11_00_01>(x));
-    _mm_cvtsi128_si32(x) as u32
 }
 
 /// Is child slot `meta` an internal node? (Internal slots store `24 + slot` in the low 5 bits with
@@ -310,14 +304,28 @@ pub(super) fn leaf_lanes(meta: u8) -> u32 {
 impl WideNode for CwBvhNode {
     const LINES: usize = 2;
 
+    /// The node's first packet (5 cache lines); nodes without leaves prefetch packet 0, without
+    /// a branch.
     #[inline(always)]
-    fn packet_base(&self) -> usize {
-        self.primitive_base_idx as usize / 8
+    fn prefetch_leaves(&self, blocks: *const u8) {
+        let has_leaves = (self.imask != 0xff) as usize;
+        let first = has_leaves * (self.primitive_base_idx as usize / 8);
+        prefetch(blocks.wrapping_add(first * PACKET_BYTES), 5);
     }
 
+    /// `leaves` are lanes from the node's first packet (bits 0..24): each packet with a lane.
     #[inline(always)]
-    fn has_leaves(&self) -> bool {
-        self.imask != 0xff
+    fn leaf_packets(&self, mut leaves: u32, mut f: impl FnMut(usize, u32) -> bool) -> bool {
+        let base = self.primitive_base_idx as usize / 8;
+        while leaves != 0 {
+            let k = leaves.trailing_zeros() as usize / 8;
+            let lanes = (leaves >> (8 * k)) & 0xff;
+            leaves &= !(0xff << (8 * k));
+            if f(base + k, lanes) {
+                return true;
+            }
+        }
+        false
     }
 
     #[inline(always)]
