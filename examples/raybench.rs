@@ -47,7 +47,7 @@ fn main() {
             }
             let split = std::env::var("NOSPLIT").is_err();
             let t0 = std::time::Instant::now();
-            // LAYOUT=full|compressed forces the node layout (default: by size)
+            // LAYOUT=full|quantised forces the node layout (default: by size)
             let full = std::env::var("LAYOUT").ok().map(|l| l == "full");
             let a = Accel::build_with_layout(&set.tris, &[], params, split, full);
             eprintln!("build {p} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);

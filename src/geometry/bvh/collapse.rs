@@ -1,28 +1,29 @@
-//! The BVH8 of [`Node8`]s collapsed from the binary BVH, with leaves of up to [`LEAF_MAX`]
+//! The BVH8 collapsed from the binary BVH, with leaves of up to [`LEAF_MAX`]
 //! primitives, each leaf one packet of its own. Top down, as Embree's BVH8 builders do: a node
 //! takes the two children of a binary node and opens the child with the largest surface area
 //! until it has 8 children or none can be opened; a child holding at most [`LEAF_MAX`]
 //! primitives is not opened but becomes a leaf. Leaves that large cost one 8-wide packet test,
-//! while the CWBVH's leaves of at most 3 primitives cost a level of nodes more.
+//! while leaves of at most 3 primitives (obvhs' CWBVH conversion) cost a level of nodes more.
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
-use super::nodes::Node8;
+use super::nodes::Encode;
 
 /// Most primitives in a leaf: one packet.
 pub(super) const LEAF_MAX: usize = 8;
 
-/// The collapsed tree: its nodes (root first), the BVH2 primitive slots of each leaf (leaf `k`
-/// is packet `k`), and its depth.
-pub(super) struct Collapsed {
-    pub nodes: Vec<Node8>,
+/// The collapsed tree: its nodes (root first; the internal children of a node are consecutive
+/// nodes, its leaves consecutive packets, both in slot order), the BVH2 primitive slots of each
+/// leaf (leaf `k` is packet `k`), and its depth.
+pub(super) struct Collapsed<N> {
+    pub nodes: Vec<N>,
     pub leaves: Vec<Vec<u32>>,
     pub depth: usize,
 }
 
 /// Collapse `bvh2` (not empty); `None` once it needs more than `max_nodes` nodes.
-pub(super) fn collapse(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed> {
+pub(super) fn collapse<N: Encode>(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed<N>> {
     let b = &bvh2.nodes;
     let count = subtree_counts(bvh2);
     let children = |n: usize| {
@@ -31,7 +32,7 @@ pub(super) fn collapse(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed> {
     };
     let is_leaf = |n: usize| b[n].prim_count > 0;
     let mut out = Collapsed {
-        nodes: vec![Node8::empty()],
+        nodes: vec![N::new(b[0].aabb())],
         leaves: Vec::new(),
         depth: 1,
     };
@@ -56,6 +57,8 @@ pub(super) fn collapse(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed> {
             kids[k] = l;
             kids.push(r);
         }
+        let (first_child, first_packet) = (out.nodes.len() as u32, out.leaves.len() as u32);
+        out.nodes[at].bases(first_child, first_packet);
         for (slot, &k) in kids.iter().enumerate() {
             let aabb: &Aabb = b[k].aabb();
             if count[k] <= LEAF_MAX {
@@ -66,7 +69,7 @@ pub(super) fn collapse(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed> {
                 if child >= max_nodes {
                     return None;
                 }
-                out.nodes.push(Node8::empty());
+                out.nodes.push(N::new(aabb));
                 out.nodes[at].set_inner(slot, aabb, child as u32);
                 todo.push((k, child, depth + 1));
             }

@@ -1,41 +1,30 @@
 //! Acceleration structure: one wide BVH8 over triangles and analytic spheres, from the binary
 //! BVH that `obvhs` builds (PLOC with pre-split triangles, then reinsertion).
 //!
-//! Nodes ([`nodes`]): the binary BVH is collapsed ([`collapse`]) to 8-wide nodes with the child
-//! boxes in full precision ([`nodes::Node8`], 256 bytes a node, no decoding per visit) and
-//! leaves of up to 8 primitives, one packet each. Where that takes more than
-//! [`nodes::FULL_NODES_MAX`] nodes, `obvhs` converts it to its 80-byte CWBVH nodes instead, whose
+//! Nodes ([`nodes`]): the binary BVH is collapsed ([`collapse`]) to 8-wide nodes with leaves of
+//! up to 8 primitives, one packet each. While that takes at most [`nodes::FULL_NODES_MAX`] nodes
+//! they keep the child boxes in full precision ([`nodes::Node8`], 256 bytes, no decoding per
+//! visit); larger trees quantise them to 8 bits per plane ([`nodes::QNode8`], 80 bytes), whose
 //! smaller footprint pays once the nodes no longer fit in the caches. Both give the same hits
 //! (up to ties between coincident primitives, which they may meet in another order).
 //!
-//! Traversal: a visit returns the hit internal slots and the hit leaves;
-//! internal children go onto the stack with one left-pack, ordered far to near, and the nearest
-//! is visited next. Branches depend on the data as little as possible (a mispredicted branch
-//! costs more than a node test).
+//! Traversal: a visit returns the hit internal slots and the hit leaves; internal children go
+//! onto the stack with one left-pack, ordered far to near, and the nearest is visited next.
+//! Branches depend on the data as little as possible (a mispredicted branch costs more than a
+//! node test).
 //!
 //! Leaves: primitives are stored as 8-lane SoA packets ([`TriBlock`], the idea of Embree's
 //! `Triangle4v`/`Triangle8v`), each tested with one branch-free 8-wide Möller–Trumbore instead of
-//! one scalar test per primitive. A full-precision node's leaf is one packet of its own. A CWBVH
-//! node's leaf primitives (at most 24, one contiguous range) are stored together, from a packet
-//! boundary (its `primitive_base_idx` is rewritten to that lane), and its hit leaf children
-//! become one lane mask over them. A lane's original primitive id is in its packet, so
-//! traversal never needs `primitive_indices`.
+//! one scalar test per primitive. A lane's original primitive id is in its packet, so traversal
+//! never needs `primitive_indices`.
 //!
-//! Notes on `obvhs` 0.4 (see the report in the commit message):
-//! - `CwBvhNode::intersect_ray` clamps the ray's `tmin` to a hard-coded `1e-4`, so hits closer than
-//!   that are silently culled at the node level. We use our own (same-algorithm) SIMD node test that
-//!   uses `tmin = 0`.
-//! - The `traverse!` macro's documented "`break` to halt traversal" only leaves the inner leaf loop;
-//!   we break out of a labelled block instead.
-//! - `Triangle::compute_barycentric` is wrong; we compute barycentrics in our own intersector.
+//! Notes on `obvhs` 0.4: its CWBVH node test clamps the ray's `tmin` to a hard-coded `1e-4`, and
+//! `Triangle::compute_barycentric` is wrong; neither is used (our own node visits use
+//! `tmin = 0`, our own intersector computes the barycentrics).
 
 use glam::Vec3A;
 use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    bvh2::reinsertion::ReinsertionOptimizer,
-    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode},
-    ploc::PlocBuilder,
+    BvhBuildParams, aabb::Aabb, bvh2::reinsertion::ReinsertionOptimizer, ploc::PlocBuilder,
     splits::split_aabbs_preset,
 };
 use std::mem::MaybeUninit;
@@ -45,7 +34,7 @@ use super::{Hit, Ray, Sphere, Triangle};
 mod collapse;
 mod nodes;
 use collapse::collapse;
-use nodes::{Entry, FULL_NODES_MAX, Node8, TRay, Visit, WideNode, is_inner, leaf_lanes};
+use nodes::{Entry, FULL_NODES_MAX, Node8, QNode8, TRay, Visit, WideNode};
 
 /// Precomputed primitive record (one per BVH primitive slot).
 ///
@@ -226,17 +215,17 @@ struct FlatBlock {
 }
 
 /// The BVH's nodes in one of the two layouts of [`nodes`]: full precision while they fit in
-/// the caches, the compressed CWBVH nodes beyond.
+/// the caches, quantised beyond.
 enum Nodes {
     Full(Vec<Node8>),
-    Compressed(Vec<CwBvhNode>),
+    Quantised(Vec<QNode8>),
 }
 
 impl Nodes {
     fn len(&self) -> usize {
         match self {
             Nodes::Full(n) => n.len(),
-            Nodes::Compressed(n) => n.len(),
+            Nodes::Quantised(n) => n.len(),
         }
     }
 
@@ -247,12 +236,12 @@ impl Nodes {
     fn bytes(&self) -> usize {
         match self {
             Nodes::Full(n) => std::mem::size_of_val(&n[..]),
-            Nodes::Compressed(n) => std::mem::size_of_val(&n[..]),
+            Nodes::Quantised(n) => std::mem::size_of_val(&n[..]),
         }
     }
 }
 
-/// The scene's acceleration structure (triangles and spheres in one CWBVH).
+/// The scene's acceleration structure (triangles and spheres in one BVH8).
 pub struct Accel {
     /// The nodes (root first), in the layout that suits the BVH's size.
     nodes: Nodes,
@@ -288,7 +277,7 @@ impl Accel {
         Self::build_with_layout(triangles, spheres, params, pre_split, None)
     }
 
-    /// [`Accel::build_with`] with the node layout forced (`full`: [`Node8`] or compressed;
+    /// [`Accel::build_with`] with the node layout forced (`full`: [`Node8`], or [`QNode8`];
     /// `None`: by size, [`FULL_NODES_MAX`]).
     #[doc(hidden)]
     pub fn build_with_layout(
@@ -303,7 +292,7 @@ impl Accel {
         assert!(n < u32::MAX as usize, "too many primitives");
         if n == 0 {
             return Accel {
-                nodes: Nodes::Compressed(Vec::new()),
+                nodes: Nodes::Quantised(Vec::new()),
                 blocks: Vec::new(),
                 sphere_lanes: Vec::new(),
                 n_tris: 0,
@@ -376,7 +365,7 @@ impl Accel {
         bvh2.uses_spatial_splits = pre_split;
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
         let (nodes, (blocks, sphere_lanes), depth) =
-            Self::wide(&bvh2, &piece_to_prim, triangles, spheres, params, full);
+            Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
         Accel {
             nodes,
             blocks,
@@ -396,7 +385,6 @@ impl Accel {
         piece_to_prim: &[u32],
         triangles: &[Triangle],
         spheres: &[Sphere],
-        params: BvhBuildParams,
         full: Option<bool>,
     ) -> (Nodes, (Vec<TriBlock>, Vec<u8>), usize) {
         let n_tris = triangles.len();
@@ -416,25 +404,20 @@ impl Accel {
         } else {
             FULL_NODES_MAX
         };
+        let packets = |leaves: &[Vec<u32>]| {
+            let leaves = leaves
+                .iter()
+                .map(|slots| slots.iter().map(|&s| bvh2.primitive_indices[s as usize]));
+            pack_collapsed(leaves, n_tris as u32, mixed, prim)
+        };
         let collapsed = (full != Some(false))
-            .then(|| collapse(bvh2, max_full))
+            .then(|| collapse::<Node8>(bvh2, max_full))
             .flatten();
         match collapsed {
-            Some(c) => {
-                let leaves = c
-                    .leaves
-                    .iter()
-                    .map(|slots| slots.iter().map(|&s| bvh2.primitive_indices[s as usize]));
-                let packets = pack_collapsed(leaves, n_tris as u32, mixed, prim);
-                (Nodes::Full(c.nodes), packets, c.depth)
-            }
+            Some(c) => (Nodes::Full(c.nodes), packets(&c.leaves), c.depth),
             None => {
-                let mut bvh =
-                    bvh2_to_cwbvh(bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
-                let pieces = std::mem::take(&mut bvh.primitive_indices);
-                let packets = pack_leaves(&mut bvh, &pieces, n_tris as u32, mixed, prim);
-                let depth = cwbvh_depth(&bvh);
-                (Nodes::Compressed(bvh.nodes), packets, depth)
+                let c = collapse::<QNode8>(bvh2, usize::MAX).expect("no node limit");
+                (Nodes::Quantised(c.nodes), packets(&c.leaves), c.depth)
             }
         }
     }
@@ -485,7 +468,7 @@ impl Accel {
     fn intersect_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         match &self.nodes {
             Nodes::Full(n) => self.intersect_stack::<Node8, AVX>(n, ray, t_max),
-            Nodes::Compressed(n) => self.intersect_stack::<CwBvhNode, AVX>(n, ray, t_max),
+            Nodes::Quantised(n) => self.intersect_stack::<QNode8, AVX>(n, ray, t_max),
         }
     }
 
@@ -707,7 +690,7 @@ impl Accel {
         let mut tmins = [0.0f32; 8];
         let mut tuv = [[0.0f32; 8]; 3];
         loop {
-            // SAFETY: child indices produced by the CWBVH builder are in bounds.
+            // SAFETY: child indices produced by the collapse are in bounds.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
             #[cfg(feature = "bvh-stats")]
             stats::count(0, 1);
@@ -819,7 +802,7 @@ impl Accel {
     fn occluded_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> bool {
         match &self.nodes {
             Nodes::Full(n) => self.occluded_stack::<Node8, AVX>(n, ray, t_max),
-            Nodes::Compressed(n) => self.occluded_stack::<CwBvhNode, AVX>(n, ray, t_max),
+            Nodes::Quantised(n) => self.occluded_stack::<QNode8, AVX>(n, ray, t_max),
         }
     }
 
@@ -885,49 +868,6 @@ impl Accel {
             cur = unsafe { stack[sp].assume_init() };
         }
     }
-}
-
-/// Move every node's leaf primitives (the slot range `primitive_base_idx..+n`, `n` ≤ 24) into
-/// packets of their own, starting on a packet boundary, and point the node at its first lane.
-/// Returns the packets and the sphere lanes per packet (if `mixed`).
-fn pack_leaves(
-    bvh: &mut CwBvh,
-    pieces: &[u32],
-    n_tris: u32,
-    mixed: bool,
-    prim: impl Fn(u32) -> (u32, Prim),
-) -> (Vec<TriBlock>, Vec<u8>) {
-    let mut blocks: Vec<TriBlock> = Vec::with_capacity(pieces.len() / 4 + 1);
-    let mut sphere_lanes = Vec::new();
-    for node in bvh.nodes.iter_mut() {
-        let n = node
-            .child_meta
-            .iter()
-            .filter(|&&m| m >> 5 != 0 && !is_inner(m))
-            .map(|&m| leaf_lanes(m).ilog2() as usize + 1)
-            .max()
-            .unwrap_or(0);
-        if n == 0 {
-            continue;
-        }
-        let old = node.primitive_base_idx as usize;
-        let first = blocks.len();
-        node.primitive_base_idx = (first * 8) as u32;
-        blocks.resize(first + n.div_ceil(8), TriBlock::UNUSED);
-        if mixed {
-            sphere_lanes.resize(blocks.len(), 0);
-        }
-        for (j, &piece) in pieces[old..old + n].iter().enumerate() {
-            let (b, l) = (first + j / 8, j % 8);
-            let (id, p) = prim(piece);
-            blocks[b].set(l, &p);
-            blocks[b].ids[l] = id;
-            if mixed && id >= n_tris {
-                sphere_lanes[b] |= 1 << l;
-            }
-        }
-    }
-    (blocks, sphere_lanes)
 }
 
 /// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the leaf's pieces (a
@@ -1114,28 +1054,6 @@ fn has_avx2() -> bool {
     false
 }
 
-/// Depth (in nodes) of a CWBVH.
-fn cwbvh_depth(bvh: &CwBvh) -> usize {
-    if bvh.nodes.is_empty() {
-        return 0;
-    }
-    let mut max = 0;
-    let mut todo = vec![(0u32, 1usize)];
-    while let Some((n, d)) = todo.pop() {
-        max = max.max(d);
-        let node = &bvh.nodes[n as usize];
-        for (i, &meta) in node.child_meta.iter().enumerate() {
-            if meta != 0 && is_inner(meta) {
-                // an internal child's slot number (meta − 24) is its position, as the
-                // traversal assumes
-                debug_assert_eq!(meta as usize & 0b1_1111, 24 + i);
-                todo.push((node.inner_child(i), d + 1));
-            }
-        }
-    }
-    max
-}
-
 /// Brute-force reference intersection (same primitive intersectors, no BVH); for tests.
 #[doc(hidden)]
 pub fn brute_force_intersect(
@@ -1301,14 +1219,14 @@ mod tests {
             let got = accel.intersect(&ray, t_max);
             hits += got.is_some() as usize;
             verify(got, "default");
-            let compressed = others[0].intersect(&ray, t_max);
-            verify(compressed, "compressed nodes");
+            let quantised = others[0].intersect(&ray, t_max);
+            verify(quantised, "quantised nodes");
             // the portable traversal takes the AVX2 one's path exactly
             let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
             assert_eq!(key(others[1].intersect(&ray, t_max)), key(got), "ray {k}");
             assert_eq!(
                 key(others[2].intersect(&ray, t_max)),
-                key(compressed),
+                key(quantised),
                 "ray {k}"
             );
             for (j, a) in std::iter::once(&accel).chain(&others).enumerate() {

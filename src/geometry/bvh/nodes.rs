@@ -1,16 +1,14 @@
-//! The two node layouts of the BVH8 and their visits: [`Node8`], full-precision child boxes
-//! (Embree's `AABBNode8` layout, 256 bytes) in the tree of [`super::collapse`] with leaves of up
-//! to 8 primitives, one packet each; and the compressed CWBVH node of `obvhs` (`CwBvhNode`, 80
-//! bytes, child boxes quantised to 8 bits, leaves of up to 3 primitives sharing the node's
-//! packets). A visit tests the ray against the 8 child boxes and returns the hit internal slots
-//! and the hit leaves, without a branch per child where AVX2 is used.
+//! The two node layouts of the BVH8 that [`super::collapse`] writes, and their visits:
+//! [`Node8`], full-precision child boxes (Embree's `AABBNode8` layout, 256 bytes), and
+//! [`QNode8`], child boxes quantised to 8 bits per plane (the CWBVH encoding, 80 bytes). A
+//! visit tests the ray against the 8 child boxes and returns the hit internal slots and the hit
+//! leaves (one packet each), without a branch per child where AVX2 is used.
 //!
-//! The full layout needs no decoding and its tree is shallower; the compressed one touches less
-//! memory, which pays once the nodes no longer fit in the caches ([`FULL_NODES_MAX`]).
+//! The full layout needs no decoding; the quantised one touches a third of the memory, which
+//! pays once the nodes no longer fit in the caches ([`FULL_NODES_MAX`]).
 
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::node::CwBvhNode;
 use std::mem::MaybeUninit;
 
 use super::prefetch;
@@ -19,9 +17,10 @@ use crate::geometry::Ray;
 /// Bytes of one leaf packet (`TriBlock`).
 pub(super) const PACKET_BYTES: usize = 320;
 
-/// Largest BVH (in nodes) traced with [`Node8`]: 8 MiB of full nodes. Larger ones keep the
-/// compressed nodes. Measured: soup100k (4 800 full nodes) 1.3× faster with full nodes; the
-/// 1M-triangle sets (49 000–70 000 full nodes) within the noise of either, soup1m 7 % slower.
+/// Largest BVH (in nodes) traced with [`Node8`]: 8 MiB of full nodes; larger ones are
+/// quantised. Measured: soup100k (4 800 nodes) 2 % faster with full nodes than quantised; the
+/// 1M-triangle sets (49 000–70 000 nodes) as fast with full nodes as with obvhs's CWBVH, which
+/// the quantised collapsed tree beats by up to 16 %.
 pub(super) const FULL_NODES_MAX: usize = (8 << 20) / std::mem::size_of::<Node8>();
 
 /// Traversal ray: origin, direction, clamped reciprocal direction.
@@ -104,6 +103,19 @@ pub(super) trait WideNode {
     );
 }
 
+/// A node layout [`super::collapse`] can write.
+pub(super) trait Encode {
+    /// A node without children, whose children all lie in `aabb`.
+    fn new(aabb: &Aabb) -> Self;
+    /// The node's first internal child and first leaf packet (children and packets are
+    /// consecutive, in slot order), before its slots are set.
+    fn bases(&mut self, child: u32, packet: u32);
+    /// Slot `slot` is the leaf `packet` with box `aabb`.
+    fn set_leaf(&mut self, slot: usize, aabb: &Aabb, packet: u32);
+    /// Slot `slot` is the internal node `node` with box `aabb`.
+    fn set_inner(&mut self, slot: usize, aabb: &Aabb, node: u32);
+}
+
 /// `_mm_max_ps(a, b)` lane by lane: `b` unless `a > b` (so `b` where either is NaN).
 #[inline(always)]
 fn max_ps(a: f32, b: f32) -> f32 {
@@ -140,14 +152,6 @@ pub(super) struct Node8 {
 }
 
 impl Node8 {
-    /// A node without children.
-    pub fn empty() -> Node8 {
-        Node8 {
-            planes: EMPTY_PLANES,
-            child: [0; 8],
-        }
-    }
-
     /// Slot `slot` holds `aabb`, rounded outwards by one ulp (the boxes of split triangle
     /// pieces are clipped in floating point).
     fn set_box(&mut self, slot: usize, aabb: &Aabb) {
@@ -156,16 +160,25 @@ impl Node8 {
             self.planes[2 * k + 1][slot] = aabb.max[k].next_up();
         }
     }
+}
 
-    /// Slot `slot` is the leaf `packet` with box `aabb`.
-    pub fn set_leaf(&mut self, slot: usize, aabb: &Aabb, packet: u32) {
+impl Encode for Node8 {
+    fn new(_aabb: &Aabb) -> Node8 {
+        Node8 {
+            planes: EMPTY_PLANES,
+            child: [0; 8],
+        }
+    }
+
+    fn bases(&mut self, _child: u32, _packet: u32) {}
+
+    fn set_leaf(&mut self, slot: usize, aabb: &Aabb, packet: u32) {
         assert!(packet < LEAF, "too many leaves");
         self.set_box(slot, aabb);
         self.child[slot] = LEAF | packet;
     }
 
-    /// Slot `slot` is the internal node `node` with box `aabb`.
-    pub fn set_inner(&mut self, slot: usize, aabb: &Aabb, node: u32) {
+    fn set_inner(&mut self, slot: usize, aabb: &Aabb, node: u32) {
         self.set_box(slot, aabb);
         self.child[slot] = node;
     }
@@ -288,40 +301,107 @@ fn visit_full_avx2(node: &Node8, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) 
     }
 }
 
-/// Is child slot `meta` an internal node? (Internal slots store `24 + slot` in the low 5 bits with
-/// the high bits `001`; leaf slots store a primitive offset < 24.)
-#[inline(always)]
-pub(super) fn is_inner(meta: u8) -> bool {
-    meta & 0b1_1000 == 0b1_1000
+/// [`QNode8::meta`] of a leaf slot (with the leaf's packet offset in the low bits).
+const QLEAF: u8 = 0x80;
+/// [`QNode8::meta`] of an internal slot.
+const QINNER: u8 = 0x40;
+
+/// A BVH8 node with its children's boxes quantised to 8 bits per plane relative to the node's
+/// box (the CWBVH encoding of Ylitie et al. 2017, as in `obvhs`' `CwBvhNode`): 80 bytes. The
+/// internal children are consecutive nodes from `child_base`, the leaves consecutive packets
+/// from `packet_base`, both in slot order.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(super) struct QNode8 {
+    /// The node box's min corner.
+    p: [f32; 3],
+    /// Per axis: the exponent bits of the quantisation step 2^(e − 127).
+    e: [u8; 3],
+    /// Internal slots.
+    imask: u8,
+    child_base: u32,
+    packet_base: u32,
+    /// Per slot: 0 empty, [`QINNER`], or [`QLEAF`] | the leaf's packet offset.
+    meta: [u8; 8],
+    /// Child box planes: min x, max x, min y, max y, min z, max z, in steps from `p`.
+    planes: [[u8; 8]; 6],
 }
 
-/// Lanes (node-relative, bits 0..24) of the leaf child with metadata `meta`.
-#[inline(always)]
-pub(super) fn leaf_lanes(meta: u8) -> u32 {
-    ((1u32 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111)
+impl QNode8 {
+    /// The quantisation step per axis.
+    #[inline(always)]
+    fn step(&self) -> Vec3A {
+        let s = |e: u8| f32::from_bits((e as u32) << 23);
+        Vec3A::new(s(self.e[0]), s(self.e[1]), s(self.e[2]))
+    }
+
+    /// Slot `slot` holds `aabb`: its planes rounded outwards to whole steps.
+    fn set_box(&mut self, slot: usize, aabb: &Aabb) {
+        let step = self.step();
+        for k in 0..3 {
+            let q = |x: f32| (x as f64 - self.p[k] as f64) / step[k] as f64;
+            self.planes[2 * k][slot] = q(aabb.min[k]).floor().clamp(0.0, 255.0) as u8;
+            self.planes[2 * k + 1][slot] = q(aabb.max[k]).ceil().clamp(0.0, 255.0) as u8;
+        }
+    }
 }
 
-impl WideNode for CwBvhNode {
+impl Encode for QNode8 {
+    fn new(aabb: &Aabb) -> QNode8 {
+        // the smallest power of two with 255 steps covering the box
+        let e = |k: usize| {
+            let extent = (aabb.max[k] - aabb.min[k]).max(1e-20);
+            ((extent / 255.0).log2().ceil().exp2().to_bits() >> 23) as u8
+        };
+        QNode8 {
+            p: aabb.min.to_array(),
+            e: [e(0), e(1), e(2)],
+            imask: 0,
+            child_base: 0,
+            packet_base: 0,
+            meta: [0; 8],
+            planes: [[0; 8]; 6],
+        }
+    }
+
+    fn bases(&mut self, child: u32, packet: u32) {
+        (self.child_base, self.packet_base) = (child, packet);
+    }
+
+    fn set_leaf(&mut self, slot: usize, aabb: &Aabb, packet: u32) {
+        let offset = packet - self.packet_base;
+        assert!(offset < 8);
+        self.set_box(slot, aabb);
+        self.meta[slot] = QLEAF | offset as u8;
+    }
+
+    fn set_inner(&mut self, slot: usize, aabb: &Aabb, node: u32) {
+        self.set_box(slot, aabb);
+        self.meta[slot] = QINNER;
+        self.imask |= 1 << slot;
+        debug_assert_eq!(node, self.inner_child(slot));
+    }
+}
+
+impl WideNode for QNode8 {
     const LINES: usize = 2;
 
-    /// The node's first packet (5 cache lines); nodes without leaves prefetch packet 0, without
-    /// a branch.
+    /// The node's first leaf packet (packet 0 for a node without leaves, without a branch).
     #[inline(always)]
     fn prefetch_leaves(&self, blocks: *const u8) {
         let has_leaves = (self.imask != 0xff) as usize;
-        let first = has_leaves * (self.primitive_base_idx as usize / 8);
+        let first = has_leaves * self.packet_base as usize;
         prefetch(blocks.wrapping_add(first * PACKET_BYTES), 5);
     }
 
-    /// `leaves` are lanes from the node's first packet (bits 0..24): each packet with a lane.
+    /// `leaves` are the hit leaf slots; each is one packet, all of whose lanes are tested.
     #[inline(always)]
     fn leaf_packets(&self, mut leaves: u32, mut f: impl FnMut(usize, u32) -> bool) -> bool {
-        let base = self.primitive_base_idx as usize / 8;
         while leaves != 0 {
-            let k = leaves.trailing_zeros() as usize / 8;
-            let lanes = (leaves >> (8 * k)) & 0xff;
-            leaves &= !(0xff << (8 * k));
-            if f(base + k, lanes) {
+            let i = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            let packet = self.packet_base as usize + (self.meta[i] & !QLEAF) as usize;
+            if f(packet, 0xff) {
                 return true;
             }
         }
@@ -330,33 +410,31 @@ impl WideNode for CwBvhNode {
 
     #[inline(always)]
     fn inner_child(&self, slot: usize) -> u32 {
-        self.child_base_idx + (self.imask as u32 & ((1u32 << slot) - 1)).count_ones()
+        self.child_base + (self.imask as u32 & ((1u32 << slot) - 1)).count_ones()
     }
 
-    /// The quantised boxes relative to the node: t = q · (2^e / d) + (p − o) / d per plane
-    /// (`CwBvhNode::intersect_ray_simd`'s arithmetic, with t_min = 0 instead of its 1e-4).
+    /// t = q · (step / d) + (p − o) / d per plane (the CWBVH slab test).
     #[inline(always)]
     fn visit<const AVX: bool>(&self, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
         #[cfg(target_arch = "x86_64")]
         if AVX {
             // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
-            return unsafe { visit_compressed_avx2(self, r, t_max, tmin_out) };
+            return unsafe { visit_quantised_avx2(self, r, t_max, tmin_out) };
         }
-        let adj_dir_inv = (self.compute_extent() * r.inv_d).to_array();
+        let adj_dir_inv = (self.step() * r.inv_d).to_array();
         let adj_orig = ((Vec3A::from(self.p) - r.o) * r.inv_d).to_array();
-        let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| quantised_plane(self, k));
+        let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| &self.planes[k]);
         let (mut inner, mut leaves) = (0, 0);
         for i in 0..8 {
             let t = |q: &[u8; 8], k: usize| q[i] as f32 * adj_dir_inv[k] + adj_orig[k];
             let tmin = max_ps(max_ps(t(nx, 0), t(ny, 1)), max_ps(t(nz, 2), 0.0));
             let tmax = min_ps(min_ps(t(fx, 0), t(fy, 1)), min_ps(t(fz, 2), t_max));
             tmin_out[i] = tmin;
-            let meta = self.child_meta[i];
-            if tmin <= tmax && meta != 0 {
-                if is_inner(meta) {
+            if tmin <= tmax {
+                if self.meta[i] & QLEAF != 0 {
+                    leaves |= 1 << i;
+                } else if self.meta[i] == QINNER {
                     inner |= 1 << i;
-                } else {
-                    leaves |= leaf_lanes(meta);
                 }
             }
         }
@@ -378,7 +456,7 @@ impl WideNode for CwBvhNode {
                 let rank = INNER_RANK[self.imask as usize].as_ptr() as *const __m128i;
                 let child = _mm256_add_epi32(
                     _mm256_cvtepu8_epi32(_mm_loadl_epi64(rank)),
-                    _mm256_set1_epi32(self.child_base_idx as i32),
+                    _mm256_set1_epi32(self.child_base as i32),
                 );
                 write_packed_avx2(child, inner, tmins, out)
             };
@@ -411,28 +489,15 @@ const INNER_RANK: [[u8; 8]; 256] = {
     t
 };
 
-/// Plane `k` (0 min x, 1 max x, …, 5 max z) of a CWBVH node's quantised child boxes: the six
-/// `[u8; 8]` fields follow one another in that order (`CwBvhNode` is `repr(C)`).
-#[inline(always)]
-fn quantised_plane(n: &CwBvhNode, k: usize) -> &[u8; 8] {
-    const FIRST: usize = std::mem::offset_of!(CwBvhNode, child_min_x);
-    const _: () = assert!(std::mem::offset_of!(CwBvhNode, child_max_z) == FIRST + 40);
-    debug_assert!(k < 6);
-    let base = (n as *const CwBvhNode as *const u8).wrapping_add(FIRST + 8 * k);
-    // SAFETY: k < 6 (`TRay::planes` holds plane numbers), and bytes FIRST + 8k .. FIRST + 8k + 8
-    // of the node are the field of plane k
-    unsafe { &*(base as *const [u8; 8]) }
-}
-
-/// AVX2 [`CwBvhNode`] visit: the same operations, all 8 slots at once, no branches.
+/// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn visit_compressed_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
+fn visit_quantised_avx2(node: &QNode8, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
     use std::arch::x86_64::*;
-    let adj_dir_inv = node.compute_extent() * r.inv_d;
+    let adj_dir_inv = node.step() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| quantised_plane(node, k).as_ptr());
+    let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| node.planes[k].as_ptr());
     // SAFETY: AVX2 is enabled for this function; the 8-byte loads read one `[u8; 8]` field each.
     unsafe {
         let q = |p: *const u8| {
@@ -457,23 +522,11 @@ fn visit_compressed_avx2(node: &CwBvhNode, r: &TRay, t_max: f32, tmin_out: &mut 
         );
         _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
         let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
-        let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(
-            _mm_loadl_epi64(node.child_meta.as_ptr() as *const __m128i),
-            _mm_setzero_si128(),
-        )) as u32;
-        let hit = hit & !empty & 0xff;
-        // the leaves' lanes one hit leaf at a time: fewer instructions than all 8 slots at
-        // once for these nodes, whose visits wait on memory more than on arithmetic
-        let mut leaf_hits = hit & !(node.imask as u32);
-        let mut leaves = 0;
-        while leaf_hits != 0 {
-            let i = leaf_hits.trailing_zeros() as usize;
-            leaf_hits &= leaf_hits - 1;
-            leaves |= leaf_lanes(node.child_meta[i]);
-        }
+        // the top bits of `meta` are the leaf slots
+        let leaf = _mm_movemask_epi8(_mm_loadl_epi64(node.meta.as_ptr() as *const __m128i)) as u32;
         Visit {
             inner: hit & node.imask as u32,
-            leaves,
+            leaves: hit & leaf & 0xff,
         }
     }
 }
