@@ -94,13 +94,38 @@ pub(super) trait WideNode {
     fn inner_child(&self, slot: usize) -> u32;
     /// Test `r` against the child boxes with t in [0, t_max]; entry distances to `tmin_out`.
     fn visit<const AVX: bool>(&self, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit;
-    /// Write the entries of the internal children in `inner` to `out` (8 entries, all written).
+    /// Each slot's internal child index as an AVX2 vector (any value for the other slots).
+    ///
+    /// # Safety
+    /// Only on CPUs with AVX2, inlined into AVX2 code.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn children_avx2(&self) -> std::arch::x86_64::__m256i;
+
+    /// Write the entries of the internal children in `inner` to `out`, in slot order and
+    /// without gaps; all 8 entries are written (the rest repeat slot 0's and are not used).
+    /// Without branches on the mask where AVX2 is used.
+    #[inline(always)]
     fn write_inner<const AVX: bool>(
         &self,
         inner: u32,
         tmins: &[f32; 8],
         out: &mut [MaybeUninit<Entry>],
-    );
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if AVX {
+            // SAFETY: `AVX` is only true on the AVX2 path.
+            unsafe { write_packed_avx2(self.children_avx2(), inner, tmins, out) };
+            return;
+        }
+        let pack = &PACK[inner as usize & 0xff];
+        for (o, &i) in out[..8].iter_mut().zip(pack) {
+            let i = i as usize;
+            *o = MaybeUninit::new(Entry {
+                node: self.inner_child(i),
+                t: tmins[i],
+            });
+        }
+    }
 }
 
 /// A node layout [`super::collapse`] can write.
@@ -238,30 +263,11 @@ impl WideNode for Node8 {
         Visit { inner, leaves }
     }
 
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn write_inner<const AVX: bool>(
-        &self,
-        inner: u32,
-        tmins: &[f32; 8],
-        out: &mut [MaybeUninit<Entry>],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: `AVX` is only true on the AVX2 path.
-            unsafe {
-                let child = std::arch::x86_64::_mm256_loadu_si256(self.child.as_ptr().cast());
-                write_packed_avx2(child, inner, tmins, out)
-            };
-            return;
-        }
-        let pack = &PACK[inner as usize & 0xff];
-        for (o, &i) in out[..8].iter_mut().zip(pack) {
-            let i = i as usize;
-            *o = MaybeUninit::new(Entry {
-                node: self.child[i],
-                t: tmins[i],
-            });
-        }
+    unsafe fn children_avx2(&self) -> std::arch::x86_64::__m256i {
+        // SAFETY: reads the node's `[u32; 8]` of children (AVX2: the caller's promise).
+        unsafe { std::arch::x86_64::_mm256_loadu_si256(self.child.as_ptr().cast()) }
     }
 }
 
@@ -441,34 +447,18 @@ impl WideNode for QNode8 {
         Visit { inner, leaves }
     }
 
+    /// `child_base` plus the number of internal slots below each slot.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn write_inner<const AVX: bool>(
-        &self,
-        inner: u32,
-        tmins: &[f32; 8],
-        out: &mut [MaybeUninit<Entry>],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: `AVX` is only true on the AVX2 path; the load reads one `[u8; 8]` row.
-            unsafe {
-                use std::arch::x86_64::*;
-                let rank = INNER_RANK[self.imask as usize].as_ptr() as *const __m128i;
-                let child = _mm256_add_epi32(
-                    _mm256_cvtepu8_epi32(_mm_loadl_epi64(rank)),
-                    _mm256_set1_epi32(self.child_base as i32),
-                );
-                write_packed_avx2(child, inner, tmins, out)
-            };
-            return;
-        }
-        let pack = &PACK[inner as usize & 0xff];
-        for (o, &i) in out[..8].iter_mut().zip(pack) {
-            let i = i as usize;
-            *o = MaybeUninit::new(Entry {
-                node: self.inner_child(i),
-                t: tmins[i],
-            });
+    unsafe fn children_avx2(&self) -> std::arch::x86_64::__m256i {
+        use std::arch::x86_64::*;
+        let rank = INNER_RANK[self.imask as usize].as_ptr() as *const __m128i;
+        // SAFETY: reads one `[u8; 8]` row of the table (AVX2: the caller's promise).
+        unsafe {
+            _mm256_add_epi32(
+                _mm256_cvtepu8_epi32(_mm_loadl_epi64(rank)),
+                _mm256_set1_epi32(self.child_base as i32),
+            )
         }
     }
 }
