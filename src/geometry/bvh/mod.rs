@@ -176,6 +176,9 @@ struct TriBlock {
     ids: [u32; 8],
 }
 
+// the packet size the node layouts prefetch by
+const _: () = assert!(std::mem::size_of::<TriBlock>() == nodes::PACKET_BYTES);
+
 impl TriBlock {
     /// No primitive in any lane (all zero, which no ray hits; ids `u32::MAX`).
     const UNUSED: TriBlock = TriBlock {
