@@ -24,6 +24,7 @@ use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
 use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
 
 /// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
 /// (camera) or L(n + 2) (light).
@@ -259,14 +260,6 @@ fn area_and_weight<'a>(
     (area, 1.0 / (1.0 + down + up))
 }
 
-/// `Vertex::pdf` of scattering vertex `v` towards `next` along the unit direction `wi` at
-/// squared distance `d2`, with `wo` towards its other neighbour: the connection and the
-/// sub-paths already hold these directions, which `Vertex::pdf` would compute again.
-#[inline]
-fn scatter_pdf(scene: &Scene, v: &Vertex, wo: Vec3, (wi, d2): (Vec3, f32), next: &Vertex) -> f32 {
-    Vertex::area_pdf(v.scattering(scene).pdf(wo, wi), wi, d2, next)
-}
-
 /// The per-sample caches a plain connection reads and extends.
 struct Caches<'a> {
     cam: &'a mut SubpathCache,
@@ -276,23 +269,44 @@ struct Caches<'a> {
 }
 
 /// The vertices of one connection: camera prefix, light suffix (in light sub-path order) or the
-/// fresh light vertex of next-event estimation.
+/// fresh light vertex of next-event estimation, and the three the connection reads most: its
+/// ends x(s−1) and x_s and the emitter x(k−1), looked up once.
 struct Ends<'a> {
     s: usize,
     t: usize,
     cam: &'a [Vertex],
     light: &'a [Vertex],
     fresh: Option<&'a Vertex>,
+    /// x(s−1), x_s (for t = 0 also x(s−1), the emitter) and x(k−1).
+    a: &'a Vertex,
+    b: &'a Vertex,
+    e: &'a Vertex,
 }
 
-impl Ends<'_> {
-    /// x_i of the connected path.
+impl<'a> Ends<'a> {
     #[inline(always)]
-    fn x(&self, i: usize) -> &Vertex {
-        match self.fresh {
-            _ if i < self.s => &self.cam[i],
-            Some(v) => v,
-            None => &self.light[self.s + self.t - 1 - i],
+    fn new(
+        (s, t): (usize, usize),
+        cam: &'a [Vertex],
+        light: &'a [Vertex],
+        fresh: Option<&'a Vertex>,
+    ) -> Self {
+        let a = &cam[s - 1];
+        // x_s and x(k−1): the fresh light vertex, or light vertices t − 1 and 0
+        let (b, e) = match (t, fresh) {
+            (0, _) => (a, a),
+            (_, Some(v)) => (v, v),
+            _ => (&light[t - 1], &light[0]),
+        };
+        Ends {
+            s,
+            t,
+            cam,
+            light,
+            fresh,
+            a,
+            b,
+            e,
         }
     }
 }
@@ -328,14 +342,8 @@ impl Bdpt {
             spectral,
             plain,
         };
-        let ends = Ends {
-            s,
-            t,
-            cam,
-            light,
-            fresh: fresh.as_ref(),
-        };
-        let e = ends.x(s + t - 1);
+        let ends = Ends::new((s, t), cam, light, fresh.as_ref());
+        let e = ends.e;
         // λ* (Jung 6.3): light tracing keeps the light's, the forward reset the camera's, the
         // backward reset the emitter's (t = 0: sampled from its emission, Jung 6.3.3)
         let l = match (s, t, self.mode) {
@@ -356,14 +364,13 @@ impl Bdpt {
             return None;
         }
         let (mut f, conn) = measurement(scene, &ends, l, &mut caches)?;
-        let x = |i| ends.x(i);
         let splat = if s == 1 {
-            Some(splat_position(scene, &cam[0], x(1))?)
+            Some(splat_position(scene, &cam[0], ends.b)?)
         } else {
             None
         };
         if t >= 1 {
-            let tr = shadow(scene, x(s - 1), x(s), s, &mut stats.rays);
+            let tr = shadow(scene, ends.a, ends.b, s, &mut stats.rays);
             if tr.is_zero() {
                 return None;
             }
@@ -383,7 +390,7 @@ impl Bdpt {
             ResetMode::Forward => (ple, pc0),
             ResetMode::Backward => (ple, ple),
         };
-        let changed = changed_pdfs(scene, &ends, conn, &caches);
+        let changed = changed_pdfs(scene, &ends, conn);
         let (area, w) = area_and_weight(&ends, changed, wl, self.mis);
         // the strategy's own pdf (eq. 6.14); zero, NaN or infinite is a lost contribution
         let p = area * if s == 1 { wl.0 } else { wl.1 };
@@ -397,16 +404,28 @@ impl Bdpt {
     }
 }
 
+/// The connection segment x(s−1) → x_s of a strategy with t ≥ 1 and what its pdfs need: the
+/// signed cosines n·w at both ends (1 at the pinhole) and whether each end's diffuse lobe joins
+/// its two path directions (the f_dir of scattering ends is 1/π exactly then).
+#[derive(Clone, Copy)]
+struct Conn {
+    seg: Seg,
+    cos_a: f32,
+    cos_b: f32,
+    lobe_a: bool,
+    lobe_b: bool,
+}
+
 /// The measurement f of the connection at λ* = `l` (eq. 6.2): C(s) · [x(s−1), x_s] · L(t),
 /// with the connection's factors first, so that a zero f_dir ends it before the products
-/// are looked up. `None` where f is 0; else f and the segment x(s−1) → x_s (t ≥ 1).
+/// are looked up. `None` where f is 0; else f and the connection (t ≥ 1).
 #[inline]
 fn measurement(
     scene: &Scene,
     ends: &Ends,
     l: f32,
     caches: &mut Caches,
-) -> Option<(f64, Option<Seg>)> {
+) -> Option<(f64, Option<Conn>)> {
     let (s, t) = (ends.s, ends.t);
     let Caches {
         cam: cam_cache,
@@ -416,40 +435,38 @@ fn measurement(
     } = caches;
     let (cam, light) = (ends.cam, ends.light);
     if t == 0 {
-        let e = ends.x(s - 1);
+        let e = ends.a;
         let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
         let f = emitted(scene, &mut plain.emit, e, cam[s - 2].p, l) * c;
         return (f > 0.0 || f.is_nan()).then_some((f, None));
     }
-    let (a, b) = (ends.x(s - 1), ends.x(s));
-    let conn = Seg::new(a, b);
-    // the connection's directional factors at x(s−1) (s ≥ 2) and x_s (t ≥ 2)
-    let dir_a = if s >= 2 {
+    let (a, b) = (ends.a, ends.b);
+    let seg = Seg::new(a, b);
+    // Without media every scattering end is a surface with a diffuse lobe (`Scattering::eval`):
+    // f_dir = 1/π where its two directions lie on one side of n.
+    let (cos_a, cos_b) = (a.n.dot(seg.w), b.n.dot(seg.w));
+    let lobe_a = s >= 2 && {
         cam_cache.camera(scene, cam);
-        a.scattering(scene).eval(-cam_cache.seg(s - 2).w, conn.w)
-    } else {
-        1.0
+        a.n.dot(-cam_cache.seg(s - 2).w) * cos_a > 0.0
     };
-    let dir_b = if t >= 2 {
+    let lobe_b = t >= 2 && {
         light_cache.light(scene, light);
-        b.scattering(scene).eval(-conn.w, light_cache.seg(t - 1).w)
-    } else {
-        1.0
+        b.n.dot(-seg.w) * b.n.dot(light_cache.seg(t - 1).w) > 0.0
     };
-    if dir_a == 0.0 || dir_b == 0.0 {
+    if (s >= 2 && !lobe_a) || (t >= 2 && !lobe_b) {
         return None;
     }
     let cam_part = if s == 1 {
         // x0 → x1: We = 1 / (A cos⁴θ) and the geometry term without the pinhole's cosine
-        let c0 = conn.w.dot(scene.camera.forward) as f64;
+        let c0 = seg.w.dot(scene.camera.forward) as f64;
         if c0 <= 0.0 {
             return None;
         }
-        let g = c0 * b.abs_cos(conn.w) as f64 / conn.d2 as f64;
+        let g = c0 * b.abs_cos(seg.w) as f64 / seg.d2 as f64;
         g / (scene.camera.film_area() as f64 * c0 * c0 * c0 * c0)
     } else {
         let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
-        c * factor(f_lambda(scene, spectral, a, l), dir_a, conn.g)
+        c * factor(f_lambda(scene, spectral, a, l), FRAC_1_PI, seg.g)
     };
     let light_part = if t == 1 {
         emitted(scene, &mut plain.emit, b, a.p, l)
@@ -458,45 +475,61 @@ fn measurement(
         let lf = light_suffix(scene, products, light_cache, light, sp, t, l);
         lf * factor(
             f_lambda(scene, spectral, b, l),
-            dir_b,
+            FRAC_1_PI,
             light_cache.seg(t - 1).g,
         )
     };
     let f = cam_part * light_part;
+    let conn = Conn {
+        seg,
+        cos_a,
+        cos_b,
+        lobe_a,
+        lobe_b,
+    };
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
 
-/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`), along the connection's own
-/// directions where the vertex scatters.
+/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end the
+/// diffuse lobe's |cos| / π along the connection (`Scattering::pdf`), at the pinhole and at the
+/// emitter their own directional pdfs; each turned into an area pdf at the other end (the
+/// same operations as `Vertex::pdf`, on the connection's own direction and cosines).
 #[inline(always)]
-fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Seg>, caches: &Caches) -> Changed {
+fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let (s, t) = (ends.s, ends.t);
-    let x = |i| ends.x(i);
-    let Some(conn) = conn else {
+    let Some(c) = conn else {
         // t = 0: the light point and emission pdfs at the emitter x(s−1)
-        let e = x(s - 1);
+        let e = ends.a;
         let rev = [
             (s - 1, e.pdf_light_origin(scene) as f64),
-            (s - 2, e.pdf_emit(scene, x(s - 2)) as f64),
+            (s - 2, e.pdf_emit(scene, &ends.cam[s - 2]) as f64),
         ];
         return Changed { fwd_s: 0.0, rev };
     };
-    let (a, b) = (x(s - 1), x(s));
-    let fwd = if s >= 2 {
-        let wo = -caches.cam.seg(s - 2).w;
-        scatter_pdf(scene, a, wo, (conn.w, conn.d2), b)
+    let (a, b) = (ends.a, ends.b);
+    let (w, d2) = (c.seg.w, c.seg.d2);
+    // |cos| at x_s and at x(s−1) of the connection (1 at the pinhole, as `abs_cos`)
+    let (abs_b, abs_a) = (c.cos_b.abs(), if s == 1 { 1.0 } else { c.cos_a.abs() });
+    let fwd_dir = if s >= 2 {
+        // the lobe joins the directions (else `measurement` stopped)
+        c.cos_a.abs() * FRAC_1_PI
     } else {
-        a.pdf(scene, None::<&Vertex>, b)
+        let cos = w.dot(a.n);
+        if cos <= 0.0 || scene.camera.project(w).is_none() {
+            0.0
+        } else {
+            scene.camera.pdf_dir(cos)
+        }
     };
-    let rev = if t >= 2 {
-        let wo = caches.light.seg(t - 1).w;
-        scatter_pdf(scene, b, wo, (-conn.w, conn.d2), a)
+    let rev_dir = if t >= 2 {
+        c.cos_b.abs() * FRAC_1_PI
     } else {
-        b.pdf(scene, None::<&Vertex>, a)
+        scene.lights.pdf_le_direction(b.light as usize, b.n, -w)
     };
+    debug_assert!((s == 1 || c.lobe_a) && (t == 1 || c.lobe_b));
     Changed {
-        fwd_s: fwd as f64,
-        rev: [(s - 1, rev as f64), (usize::MAX, 0.0)],
+        fwd_s: (fwd_dir * abs_b / d2) as f64,
+        rev: [(s - 1, (rev_dir * abs_a / d2) as f64), (usize::MAX, 0.0)],
     }
 }
 
