@@ -2,8 +2,10 @@
 """Measure the speed goals of docs/performance.md, back to back on this machine.
 
 Every comparison alternates its two sides for --rounds rounds and reports the median of each
-side and their ratio, so that a slow spell of a shared machine hits both sides alike. Results
-go to stdout as a Markdown table and to target/performance.json.
+side and the median of the per-round ratios a_i / b_i: each round's two runs follow each other,
+so a slow spell of a shared machine hits both sides of a round alike, and the verdict uses that
+paired ratio (the ratio of the two medians is printed next to it). Results go to stdout as a
+Markdown table and to target/performance.json.
 
 Goals (--only NAME[,NAME]; default all):
   rays      closest-hit Mrays/s against Embree 3, 1 thread, on the stored ray sets and the
@@ -75,18 +77,22 @@ def mitsuba(medium, spp):
 
 
 def compare(rounds, a, b):
-    """Medians of a() and b() alternated over `rounds` rounds, and median(a) / median(b)."""
+    """Medians of a() and b() alternated over `rounds` rounds, the median of the per-round
+    ratios a_i / b_i (`ratio`, the verdict's) and median(a) / median(b) (`ratio_of_medians`)."""
     xs, ys = [], []
     for _ in range(rounds):
         xs.append(a())
         ys.append(b())
     ma, mb = statistics.median(xs), statistics.median(ys)
-    return {"a": ma, "b": mb, "ratio": ma / mb, "a_runs": xs, "b_runs": ys}
+    paired = statistics.median(x / y for x, y in zip(xs, ys))
+    return {"a": ma, "b": mb, "ratio": paired, "ratio_of_medians": ma / mb, "a_runs": xs,
+            "b_runs": ys}
 
 
 def row(goal, what, r, a_name, b_name, target, unit="M samples/s", met=None):
-    line = "| %s | %s | %s %.3f | %s %.3f | %.2f× | %s |" % (
-        goal, what, a_name, r["a"] / 1e6, b_name, r["b"] / 1e6, r["ratio"], target)
+    line = "| %s | %s | %s %.3f | %s %.3f | %.2f× (%.2f×) | %s |" % (
+        goal, what, a_name, r["a"] / 1e6, b_name, r["b"] / 1e6, r["ratio"],
+        r["ratio_of_medians"], target)
     if met is not None:
         line += " %s |" % ("met" if met else "not met")
     print(line, flush=True)
@@ -199,7 +205,7 @@ def main():
     if os.path.exists(LLVM):
         os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
     exe = build()
-    print("| goal | what | A | B | A / B | target | |")
+    print("| goal | what | A | B | A / B: paired (of medians) | target | |")
     print("|---|---|---|---|---|---|---|")
     results = []
     for n in names:
