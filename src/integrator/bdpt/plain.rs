@@ -23,6 +23,7 @@ use super::subpath::Vertex;
 use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
+use crate::transport::Scattering;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
@@ -404,16 +405,14 @@ impl Bdpt {
     }
 }
 
-/// The connection segment x(s−1) → x_s of a strategy with t ≥ 1 and what its pdfs need: the
-/// signed cosines n·w at both ends (1 at the pinhole) and whether each end's diffuse lobe joins
-/// its two path directions (the f_dir of scattering ends is 1/π exactly then).
+/// The connection segment x(s−1) → x_s of a strategy with t ≥ 1 and the signed cosines n·w of
+/// its direction at both ends (at the pinhole n is the camera's forward axis), which its pdfs
+/// reuse.
 #[derive(Clone, Copy)]
 struct Conn {
     seg: Seg,
     cos_a: f32,
     cos_b: f32,
-    lobe_a: bool,
-    lobe_b: bool,
 }
 
 /// The measurement f of the connection at λ* = `l` (eq. 6.2): C(s) · [x(s−1), x_s] · L(t),
@@ -442,8 +441,11 @@ fn measurement(
     }
     let (a, b) = (ends.a, ends.b);
     let seg = Seg::new(a, b);
-    // Without media every scattering end is a surface with a diffuse lobe (`Scattering::eval`):
-    // f_dir = 1/π where its two directions lie on one side of n.
+    // Without media every scattering end is a surface with a diffuse lobe: f_dir = 1/π where its
+    // two directions lie on one side of n, else 0 (`Scattering::eval`, which the full
+    // evaluation calls; tests/bdpt_plain.rs compares the two connection by connection).
+    debug_assert!(s == 1 || a.scattering(scene) == Scattering::Diffuse { n: a.n });
+    debug_assert!(t == 1 || b.scattering(scene) == Scattering::Diffuse { n: b.n });
     let (cos_a, cos_b) = (a.n.dot(seg.w), b.n.dot(seg.w));
     let lobe_a = s >= 2 && {
         cam_cache.camera(scene, cam);
@@ -480,20 +482,15 @@ fn measurement(
         )
     };
     let f = cam_part * light_part;
-    let conn = Conn {
-        seg,
-        cos_a,
-        cos_b,
-        lobe_a,
-        lobe_b,
-    };
+    let conn = Conn { seg, cos_a, cos_b };
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
 
 /// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end the
-/// diffuse lobe's |cos| / π along the connection (`Scattering::pdf`), at the pinhole and at the
-/// emitter their own directional pdfs; each turned into an area pdf at the other end (the
-/// same operations as `Vertex::pdf`, on the connection's own direction and cosines).
+/// diffuse lobe's |cos| / π along the connection (`Scattering::pdf`; [`measurement`] returned
+/// `None` unless the lobe joins both directions), at the pinhole and at the emitter their own
+/// directional pdfs; each turned into an area pdf at the other end (the same operations as
+/// `Vertex::pdf`, on the connection's own direction and cosines).
 #[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let (s, t) = (ends.s, ends.t);
@@ -511,7 +508,6 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     // |cos| at x_s and at x(s−1) of the connection (1 at the pinhole, as `abs_cos`)
     let (abs_b, abs_a) = (c.cos_b.abs(), if s == 1 { 1.0 } else { c.cos_a.abs() });
     let fwd_dir = if s >= 2 {
-        // the lobe joins the directions (else `measurement` stopped)
         c.cos_a.abs() * FRAC_1_PI
     } else {
         let cos = w.dot(a.n);
@@ -526,7 +522,6 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     } else {
         scene.lights.pdf_le_direction(b.light as usize, b.n, -w)
     };
-    debug_assert!((s == 1 || c.lobe_a) && (t == 1 || c.lobe_b));
     Changed {
         fwd_s: (fwd_dir * abs_b / d2) as f64,
         rev: [(s - 1, (rev_dir * abs_a / d2) as f64), (usize::MAX, 0.0)],
