@@ -87,4 +87,15 @@ impl Camera {
     pub fn pdf_dir(&self, cos: f32) -> f32 {
         1.0 / (self.film_area() * cos * cos * cos)
     }
+
+    /// [`Camera::pdf_dir`] of the unit direction `w` from the pinhole whose axis is `n`; `None`
+    /// where `w` is behind the pinhole or off the film (pbrt `Camera::PDF_We`).
+    #[inline]
+    pub fn pdf_dir_towards(&self, n: Vec3, w: Vec3) -> Option<f32> {
+        let cos = w.dot(n);
+        if cos <= 0.0 || self.project(w).is_none() {
+            return None;
+        }
+        Some(self.pdf_dir(cos))
+    }
 }

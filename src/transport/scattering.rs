@@ -41,18 +41,50 @@ pub fn henyey_greenstein(mu: f32, g: f32) -> f32 {
     (1.0 - g * g) / (4.0 * PI * denom * denom.max(0.0).sqrt())
 }
 
+/// f of the diffuse lobe (without the cosine) where it joins its two directions.
+pub const DIFFUSE_F: f32 = FRAC_1_PI;
+
+/// Whether the diffuse lobe joins two directions whose cosines to the normal are `cos_o` and
+/// `cos_i`: both on one side of the surface.
+#[inline(always)]
+pub fn diffuse_joins(cos_o: f32, cos_i: f32) -> bool {
+    cos_o * cos_i > 0.0
+}
+
+/// f of the diffuse lobe without the cosine, from the cosines n·wo and n·wi of its two
+/// directions: [`DIFFUSE_F`] where it joins them, else 0.
+#[inline(always)]
+pub fn diffuse_f(cos_o: f32, cos_i: f32) -> f32 {
+    if diffuse_joins(cos_o, cos_i) {
+        DIFFUSE_F
+    } else {
+        0.0
+    }
+}
+
+/// Solid-angle pdf of the diffuse lobe's cosine-weighted sampling of wi given wo, from the
+/// cosines n·wo and n·wi: [`diffuse_pdf_joined`] where it joins them, else 0.
+#[inline(always)]
+pub fn diffuse_pdf(cos_o: f32, cos_i: f32) -> f32 {
+    if diffuse_joins(cos_o, cos_i) {
+        diffuse_pdf_joined(cos_i)
+    } else {
+        0.0
+    }
+}
+
+/// [`diffuse_pdf`] of directions the lobe is known to join: |cos θi| / π.
+#[inline(always)]
+pub fn diffuse_pdf_joined(cos_i: f32) -> f32 {
+    cos_i.abs() * FRAC_1_PI
+}
+
 impl Scattering {
     /// f(wo, wi) without the cosine.
     #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         match *self {
-            Scattering::Diffuse { n } => {
-                if n.dot(wo) * n.dot(wi) > 0.0 {
-                    FRAC_1_PI
-                } else {
-                    0.0
-                }
-            }
+            Scattering::Diffuse { n } => diffuse_f(n.dot(wo), n.dot(wi)),
             Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
         }
     }
@@ -61,14 +93,7 @@ impl Scattering {
     #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match *self {
-            Scattering::Diffuse { n } => {
-                let ci = n.dot(wi);
-                if n.dot(wo) * ci > 0.0 {
-                    ci.abs() * FRAC_1_PI
-                } else {
-                    0.0
-                }
-            }
+            Scattering::Diffuse { n } => diffuse_pdf(n.dot(wo), n.dot(wi)),
             Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
         }
     }

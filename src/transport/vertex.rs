@@ -221,11 +221,10 @@ impl<P> Vertex<P> {
         match self.kind {
             VertexKind::Camera => {
                 let (w, d2) = self.towards(next);
-                let cos = w.dot(self.n);
-                if cos <= 0.0 || scene.camera.project(w).is_none() {
-                    return 0.0;
+                match scene.camera.pdf_dir_towards(self.n, w) {
+                    Some(p) => Self::area_pdf(p, w, d2, next),
+                    None => 0.0,
                 }
-                Self::area_pdf(scene.camera.pdf_dir(cos), w, d2, next)
             }
             VertexKind::Light => self.pdf_emit(scene, next),
             VertexKind::Surface | VertexKind::Medium => match prev {

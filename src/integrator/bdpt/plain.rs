@@ -24,8 +24,8 @@ use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
 use crate::transport::Scattering;
+use crate::transport::scattering::{DIFFUSE_F, diffuse_joins, diffuse_pdf_joined};
 use glam::Vec3;
-use std::f32::consts::FRAC_1_PI;
 
 /// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
 /// (camera) or L(n + 2) (light).
@@ -441,19 +441,19 @@ fn measurement(
     }
     let (a, b) = (ends.a, ends.b);
     let seg = Seg::new(a, b);
-    // Without media every scattering end is a surface with a diffuse lobe: f_dir = 1/π where its
-    // two directions lie on one side of n, else 0 (`Scattering::eval`, which the full
-    // evaluation calls; tests/bdpt_plain.rs compares the two connection by connection).
+    // Without media every scattering end is a surface with a diffuse lobe, whose f_dir and pdf
+    // depend only on the cosines of its two directions (`scattering::diffuse_joins`, as
+    // `Scattering::eval` of the full evaluation; tests/bdpt_plain.rs compares the two).
     debug_assert!(s == 1 || a.scattering(scene) == Scattering::Diffuse { n: a.n });
     debug_assert!(t == 1 || b.scattering(scene) == Scattering::Diffuse { n: b.n });
     let (cos_a, cos_b) = (a.n.dot(seg.w), b.n.dot(seg.w));
     let lobe_a = s >= 2 && {
         cam_cache.camera(scene, cam);
-        a.n.dot(-cam_cache.seg(s - 2).w) * cos_a > 0.0
+        diffuse_joins(a.n.dot(-cam_cache.seg(s - 2).w), cos_a)
     };
     let lobe_b = t >= 2 && {
         light_cache.light(scene, light);
-        b.n.dot(-seg.w) * b.n.dot(light_cache.seg(t - 1).w) > 0.0
+        diffuse_joins(b.n.dot(-seg.w), b.n.dot(light_cache.seg(t - 1).w))
     };
     if (s >= 2 && !lobe_a) || (t >= 2 && !lobe_b) {
         return None;
@@ -468,7 +468,7 @@ fn measurement(
         g / (scene.camera.film_area() as f64 * c0 * c0 * c0 * c0)
     } else {
         let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
-        c * factor(f_lambda(scene, spectral, a, l), FRAC_1_PI, seg.g)
+        c * factor(f_lambda(scene, spectral, a, l), DIFFUSE_F, seg.g)
     };
     let light_part = if t == 1 {
         emitted(scene, &mut plain.emit, b, a.p, l)
@@ -477,7 +477,7 @@ fn measurement(
         let lf = light_suffix(scene, products, light_cache, light, sp, t, l);
         lf * factor(
             f_lambda(scene, spectral, b, l),
-            FRAC_1_PI,
+            DIFFUSE_F,
             light_cache.seg(t - 1).g,
         )
     };
@@ -487,10 +487,9 @@ fn measurement(
 }
 
 /// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end the
-/// diffuse lobe's |cos| / π along the connection (`Scattering::pdf`; [`measurement`] returned
-/// `None` unless the lobe joins both directions), at the pinhole and at the emitter their own
-/// directional pdfs; each turned into an area pdf at the other end (the same operations as
-/// `Vertex::pdf`, on the connection's own direction and cosines).
+/// diffuse lobe's (`scattering::diffuse_pdf_joined`, as `Scattering::pdf`), at the pinhole and
+/// at the emitter their own directional pdfs; each turned into an area pdf at the other end
+/// (the same operations as `Vertex::pdf`, on the connection's own direction and cosines).
 #[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let (s, t) = (ends.s, ends.t);
@@ -507,23 +506,21 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let (w, d2) = (c.seg.w, c.seg.d2);
     // |cos| at x_s and at x(s−1) of the connection (1 at the pinhole, as `abs_cos`)
     let (abs_b, abs_a) = (c.cos_b.abs(), if s == 1 { 1.0 } else { c.cos_a.abs() });
-    let fwd_dir = if s >= 2 {
-        c.cos_a.abs() * FRAC_1_PI
+    // a scattering end's lobe joins its two directions, else `measurement` returned `None`
+    let fwd = if s >= 2 {
+        diffuse_pdf_joined(c.cos_a) * abs_b / d2
     } else {
-        let cos = w.dot(a.n);
-        if cos <= 0.0 || scene.camera.project(w).is_none() {
-            0.0
-        } else {
-            scene.camera.pdf_dir(cos)
-        }
+        let pdf = scene.camera.pdf_dir_towards(a.n, w);
+        pdf.map_or(0.0, |p| p * abs_b / d2)
     };
     let rev_dir = if t >= 2 {
-        c.cos_b.abs() * FRAC_1_PI
+        // wi = −w, whose cosine is −(n·w) exactly
+        diffuse_pdf_joined(-c.cos_b)
     } else {
         scene.lights.pdf_le_direction(b.light as usize, b.n, -w)
     };
     Changed {
-        fwd_s: (fwd_dir * abs_b / d2) as f64,
+        fwd_s: fwd as f64,
         rev: [(s - 1, (rev_dir * abs_a / d2) as f64), (usize::MAX, 0.0)],
     }
 }
