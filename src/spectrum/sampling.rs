@@ -9,12 +9,17 @@ pub struct Distribution1D {
     lo: f32,
     hi: f32,
     cell: f32,
-    /// Cell values (bin averages of the source function, ≥ 0).
-    func: Vec<f32>,
+    /// The density of each cell: its value (the bin average of the source function, ≥ 0) over
+    /// the integral, or uniform where the integral is 0.
+    pdf: Vec<f32>,
     /// Normalised CDF, `cdf[0] = 0`, `cdf[n] = 1`.
     cdf: Vec<f32>,
     /// ∫ f over [lo, hi].
     integral: f64,
+    /// Guide table: `guide[j]` is the number of CDF entries ≤ j / G for the G = `guide.len() − 1`
+    /// equal parts of [0, 1] (the cutpoint method), so that `sample` searches only the CDF
+    /// entries between two neighbouring cutpoints; the same index as searching the whole CDF.
+    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -44,7 +49,7 @@ impl Distribution1D {
             cdf.push(acc);
         }
         let integral = acc;
-        let cdf = cdf
+        let cdf: Vec<f32> = cdf
             .into_iter()
             .enumerate()
             .map(|(i, c)| {
@@ -55,13 +60,25 @@ impl Distribution1D {
                 }
             })
             .collect();
+        let guide = guide_table(&cdf, n);
+        let pdf = func
+            .iter()
+            .map(|&f| {
+                if integral > 0.0 {
+                    (f as f64 / integral) as f32
+                } else {
+                    1.0 / (domain.max - domain.min)
+                }
+            })
+            .collect();
         Distribution1D {
             lo: domain.min,
             hi: domain.max,
             cell,
-            func,
+            pdf,
             cdf,
             integral,
+            guide,
         }
     }
 
@@ -80,13 +97,9 @@ impl Distribution1D {
     /// Sample λ from uniform `u` in [0, 1); returns (λ, pdf).
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32) {
-        let n = self.func.len();
+        let n = self.pdf.len();
         // Largest i with cdf[i] <= u, and a cell with non-zero mass.
-        let mut i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .saturating_sub(1)
-            .min(n - 1);
+        let mut i = self.count_at_most(u).saturating_sub(1).min(n - 1);
         while i + 1 < n && self.cdf[i + 1] <= self.cdf[i] {
             i += 1;
         }
@@ -105,13 +118,25 @@ impl Distribution1D {
         (l, self.pdf_cell(i))
     }
 
+    /// The number of CDF entries ≤ `u` (`partition_point` over the whole CDF), searched only
+    /// between the guide's two cutpoints around `u`.
+    #[inline]
+    fn count_at_most(&self, u: f32) -> usize {
+        let (cdf, g) = (&self.cdf[..], self.guide.len() - 1);
+        let j = ((u * g as f32) as usize).min(g - 1);
+        let (a, b) = (self.guide[j] as usize, self.guide[j + 1] as usize);
+        // the count is at least a if entry a − 1 is ≤ u and at most b if entry b is > u; where
+        // rounding put u beside its part (or u is NaN), the whole CDF
+        if (a == 0 || cdf[a - 1] <= u) && (b == cdf.len() || cdf[b] > u) {
+            a + cdf[a..b].partition_point(|&c| c <= u)
+        } else {
+            cdf.partition_point(|&c| c <= u)
+        }
+    }
+
     #[inline]
     fn pdf_cell(&self, i: usize) -> f32 {
-        if self.integral > 0.0 {
-            (self.func[i] as f64 / self.integral) as f32
-        } else {
-            1.0 / (self.hi - self.lo)
-        }
+        self.pdf[i]
     }
 
     /// Density at λ (zero outside the domain).
@@ -125,8 +150,26 @@ impl Distribution1D {
 
     #[inline]
     fn cell_index(&self, l: f32) -> usize {
-        (((l - self.lo) / self.cell) as usize).min(self.func.len() - 1)
+        (((l - self.lo) / self.cell) as usize).min(self.pdf.len() - 1)
     }
+}
+
+/// Cutpoint j of G equal parts of [0, 1].
+#[inline(always)]
+fn cutpoint(j: usize, g: usize) -> f32 {
+    j as f32 / g as f32
+}
+
+/// The guide table of `cdf` with `parts` equal parts of [0, 1]: entry j counts the CDF entries
+/// ≤ cutpoint j. An entry ≤ u is ≤ every cutpoint above u and one > u is > every cutpoint
+/// below, so the count at u lies between the counts at the two cutpoints around it.
+fn guide_table(cdf: &[f32], parts: usize) -> Vec<u32> {
+    (0..=parts)
+        .map(|j| {
+            let c = cutpoint(j, parts);
+            cdf.partition_point(|&x| x <= c) as u32
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -173,6 +216,50 @@ mod tests {
                 (h as f32 - expected).abs() < 5.0 * sd + 1.0,
                 "bin {b}: {h} vs {expected}"
             );
+        }
+    }
+
+    /// The guided search finds the index of a search over the whole CDF, at and beside every
+    /// CDF entry and cutpoint and on a fine grid, for smooth, boxed, sparse and flat tables.
+    #[test]
+    fn guided_search_is_the_whole_search() {
+        let d = Domain {
+            min: 280.0,
+            max: 780.0,
+        };
+        let spectra = [
+            Spectrum::gaussian_fwhm(515.0, 30.0, 1.0),
+            Spectrum::gaussian_fwhm(515.0, 0.3, 1.0),
+            Spectrum::Box {
+                lo: 402.5,
+                hi: 437.3,
+                value: 3.0,
+            },
+            Spectrum::Constant(1.0),
+            Spectrum::Constant(0.0),
+        ];
+        for spec in &spectra {
+            for cell in [1.0, 7.0, 500.0] {
+                let dist = Distribution1D::from_spectrum(spec, d, cell);
+                let g = dist.guide.len() - 1;
+                let mut us: Vec<f32> = (0..=100_000).map(|k| k as f32 / 100_000.0).collect();
+                us.extend((0..=g).map(|j| cutpoint(j, g)));
+                us.extend(dist.cdf.iter().copied());
+                let near: Vec<f32> = us
+                    .iter()
+                    .flat_map(|u| [u.next_up(), u.next_down()])
+                    .collect();
+                us.extend(near);
+                us.extend([-0.0, -1e-30, 1.0, 1.5, f32::NAN, f32::INFINITY]);
+                for u in us {
+                    let want = dist.cdf.partition_point(|&c| c <= u);
+                    assert_eq!(
+                        dist.count_at_most(u),
+                        want,
+                        "u = {u:e}, {spec:?}, cell {cell}"
+                    );
+                }
+            }
         }
     }
 
