@@ -96,7 +96,9 @@ impl Spectrum {
         }
     }
 
-    /// Value at wavelength `l`.
+    /// Value at wavelength `l`. Constants and boxes, the cheap and common cases, are
+    /// evaluated inline; the others by [`Self::eval_shaped`].
+    #[inline]
     pub fn eval(&self, l: f32) -> f32 {
         match self {
             Spectrum::Constant(v) => *v,
@@ -107,6 +109,15 @@ impl Spectrum {
                     0.0
                 }
             }
+            _ => self.eval_shaped(l),
+        }
+    }
+
+    /// [`Self::eval`] of a Gaussian, tabulated or binned spectrum.
+    #[inline(never)]
+    fn eval_shaped(&self, l: f32) -> f32 {
+        match self {
+            Spectrum::Constant(_) | Spectrum::Box { .. } => self.eval(l),
             Spectrum::Gaussian {
                 center,
                 sigma,
