@@ -204,27 +204,22 @@ impl RowResult {
     }
 }
 
-/// One pass: sample `s` of every pixel, rows in parallel. Each row adds its values to its own
-/// film row; then the splats, by bands of film rows in parallel, and the strategy-image values
-/// are added in row order, so every sum sees the same additions in the same order whatever the
-/// thread count.
-#[allow(clippy::too_many_arguments)]
-fn pass<I: Integrator>(
+/// The rows of one pass: sample `s` of every pixel, rows in parallel. Each row adds its values
+/// to its own film row (`sum`) and keeps its splats and strategy-image values in its
+/// `RowResult` for [`add_splats`] and [`add_aux`].
+fn pass_rows<I: Integrator>(
     scene: &Scene,
     integrator: &I,
-    seed: u64,
-    s: u32,
-    film: &mut Film,
+    (seed, s): (u64, u32),
+    sum: &mut [[f64; 3]],
     rows: &mut [RowResult],
     scratches: &Scratches<I::Scratch>,
-    stats: &mut Stats,
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
     // One row per job: a thread that runs out steals single rows, so both threads stay busy to
     // the end of the pass (rayon's default leaves run up to a quarter of the rows in one piece,
     // which the other thread can only wait for).
-    film.sum
-        .par_chunks_mut(w as usize)
+    sum.par_chunks_mut(w as usize)
         .zip(rows.par_iter_mut())
         .enumerate()
         .with_max_len(1)
@@ -252,27 +247,38 @@ fn pass<I: Integrator>(
                 Film::add(sum, sink.value);
             }
         });
-    let band = (Splats::BAND_ROWS * w) as usize;
-    if rows
+}
+
+/// Add the light-tracing splats of one pass's rows to the film's splat sums, by bands of film
+/// rows in parallel and, within a band, in row order, so that every pixel receives its splats
+/// in the same order whatever the thread count.
+fn add_splats(splat: &mut [[f64; 3]], rows: &[RowResult], width: u32) {
+    let band = (Splats::BAND_ROWS * width) as usize;
+    if !rows
         .iter()
         .any(|r| r.splats.bands.iter().any(|b| !b.is_empty()))
     {
-        film.splat
-            .par_chunks_mut(band)
-            .enumerate()
-            .with_max_len(1)
-            .for_each(|(b, splat)| {
-                let base = b * band;
-                for r in rows.iter() {
-                    for (p, v) in &r.splats.bands[b] {
-                        Film::add(&mut splat[*p as usize - base], *v);
-                    }
-                }
-            });
+        return;
     }
-    for r in rows.iter() {
+    splat
+        .par_chunks_mut(band)
+        .enumerate()
+        .with_max_len(1)
+        .for_each(|(b, splat)| {
+            let base = b * band;
+            for r in rows {
+                for (p, v) in &r.splats.bands[b] {
+                    Film::add(&mut splat[*p as usize - base], *v);
+                }
+            }
+        });
+}
+
+/// Add the strategy-image values and the statistics of one pass's rows, in row order.
+fn add_aux(aux: &mut [Vec<[f64; 3]>], rows: &[RowResult], stats: &mut Stats) {
+    for r in rows {
         for (l, p, v) in &r.aux {
-            Film::add(&mut film.aux[*l as usize][*p as usize], *v);
+            Film::add(&mut aux[*l as usize][*p as usize], *v);
         }
         stats.merge(&r.stats);
     }
@@ -287,7 +293,12 @@ pub fn run<I: Integrator>(
 ) -> Result<RenderOutput, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h, integrator.aux_layers());
+    // Two sets of row results: a pass's splats are added to the film while the next pass
+    // renders into the other set (the adding scales poorly and would otherwise keep one thread
+    // waiting at the end of every pass); each pixel still receives them pass by pass, in order.
     let mut rows: Vec<RowResult> = (0..h).map(|_| RowResult::new(w, h)).collect();
+    let mut done: Vec<RowResult> = (0..h).map(|_| RowResult::new(w, h)).collect();
+    let mut pending = false;
     let scratches = Scratches::new(|| integrator.scratch(scene));
     let mut stats = Stats::default();
     let start = Instant::now();
@@ -317,17 +328,27 @@ pub fn run<I: Integrator>(
             )
         })?;
     for s in settings.first_sample..end {
-        pass(
-            scene,
-            integrator,
-            settings.seed,
-            s,
-            &mut film,
-            &mut rows,
-            &scratches,
-            &mut stats,
+        let Film {
+            sum, splat, aux, ..
+        } = &mut film;
+        let seed = settings.seed;
+        rayon::join(
+            || pass_rows(scene, integrator, (seed, s), sum, &mut rows, &scratches),
+            || {
+                if pending {
+                    add_splats(splat, &done, w);
+                }
+            },
         );
+        add_aux(aux, &rows, &mut stats);
+        std::mem::swap(&mut rows, &mut done);
+        pending = true;
         film.spp += 1;
+        if on_pass.is_some() {
+            // the callback sees the film with this pass's splats
+            add_splats(&mut film.splat, &done, w);
+            pending = false;
+        }
         let secs = start.elapsed().as_secs_f64();
         if let Some(b) = &bar {
             b.set_position(film.spp as u64);
@@ -344,6 +365,9 @@ pub fn run<I: Integrator>(
         if settings.time_limit.is_some_and(|t| secs >= t) {
             break;
         }
+    }
+    if pending {
+        add_splats(&mut film.splat, &done, w);
     }
     if let Some(b) = bar {
         b.finish_and_clear();
