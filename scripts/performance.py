@@ -38,7 +38,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 INTEGRATORS = ["pt-mono", "pt-hero", "bdpt-forward", "bdpt-backward", "bdpt-allbins"]
 # Samples per pixel per render, chosen so that a render takes about 1-4 s at 2 threads.
-SPP = {"pt-mono": 128, "pt-hero": 64, "bdpt-forward": 16, "bdpt-backward": 16, "bdpt-allbins": 4}
+SPP = {"pt-mono": 128, "pt-hero": 64, "bdpt-forward": 16, "bdpt-backward": 16, "bdpt-allbins": 16}
 
 
 def run(cmd, **kw):
