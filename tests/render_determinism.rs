@@ -100,3 +100,68 @@ fn time_limit_stops_early() {
     assert!(out.film.spp >= 1 && out.film.spp < 1_000_000);
     assert!(out.seconds < 5.0);
 }
+
+/// A pass's light-tracing splats are added to the film while the next pass renders: the film a
+/// render returns, the film a pass callback sees after each pass, and the film of a render
+/// stopped by its time limit must all hold every splat of the passes they count.
+#[test]
+fn every_pass_film_holds_its_splats() {
+    let scene = small("scenes/cornell-box.json");
+    let opts = IntegratorOptions::default();
+    let settings = |spp, time_limit| RenderSettings {
+        first_sample: 0,
+        spp,
+        seed: 3,
+        threads: Some(2),
+        time_limit,
+        ..Default::default()
+    };
+    let alone = |spp| {
+        let out = render(
+            &scene,
+            IntegratorKind::BdptForward,
+            &opts,
+            &settings(spp, None),
+            None,
+        );
+        let film = out.unwrap().film;
+        assert!(
+            film.splat.iter().any(|p| p[0] > 0.0),
+            "light tracing splatted nothing"
+        );
+        film.xyz()
+    };
+    // each pass as the callback sees it, against a render of that many passes
+    let mut seen = Vec::new();
+    let mut cb = |film: &stokes::film::Film, _: &stokes::integrator::Stats, _: f64| {
+        seen.push((film.spp, film.xyz()));
+        true
+    };
+    let out = render(
+        &scene,
+        IntegratorKind::BdptForward,
+        &opts,
+        &settings(3, None),
+        Some(&mut cb),
+    );
+    let last = out.unwrap().film.xyz();
+    assert_eq!(seen.len(), 3);
+    for (spp, xyz) in &seen {
+        assert!(*xyz == alone(*spp), "the callback's film after pass {spp}");
+    }
+    assert!(last == alone(3), "the film of a render with a callback");
+    // a time limit of 0 s stops after the first pass, whose splats must be in the film
+    let out = render(
+        &scene,
+        IntegratorKind::BdptForward,
+        &opts,
+        &settings(5, Some(0.0)),
+        None,
+    );
+    let film = out.unwrap().film;
+    assert_eq!(film.spp, 1);
+    assert!(
+        film.xyz() == alone(1),
+        "the film of a render stopped by its time limit"
+    );
+}
