@@ -1,9 +1,9 @@
-//! The BVH8 collapsed from the binary BVH, with leaves of up to [`LEAF_MAX`]
-//! primitives, each leaf one packet of its own. Top down, as Embree's BVH8 builders do: a node
-//! takes the two children of a binary node and opens the child with the largest surface area
-//! until it has 8 children or none can be opened; a child holding at most [`LEAF_MAX`]
-//! primitives is not opened but becomes a leaf. Leaves that large cost one 8-wide packet test,
-//! while leaves of at most 3 primitives (obvhs' CWBVH conversion) cost a level of nodes more.
+//! The BVH8 collapsed from the binary BVH, with leaves of up to [`LEAF_MAX`] primitives, each
+//! leaf one packet of its own: a subtree of at most [`LEAF_MAX`] primitives is a leaf, and which
+//! binary subtrees fill the 8 slots of each node is the choice of least expected cost in the
+//! surface-area model ([`Plan`], by dynamic programming over the binary tree, as Ylitie et al.
+//! 2017 do for their 8-wide BVH). Leaves that large cost one 8-wide packet test, while leaves of
+//! at most 3 primitives (obvhs' CWBVH conversion) cost a level of nodes more.
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
@@ -15,53 +15,42 @@ pub(super) const LEAF_MAX: usize = 8;
 
 /// The collapsed tree: its nodes (root first; the internal children of a node are consecutive
 /// nodes, its leaves consecutive packets, both in slot order), the BVH2 primitive slots of each
-/// leaf (leaf `k` is packet `k`), and its depth.
+/// leaf (leaf `k` is packet `k`), its depth, and its cost in the surface-area model: the node
+/// visits and the packet tests of a ray through the root's box (each box's area over the
+/// root's, summed over the nodes and over the leaves).
 pub(super) struct Collapsed<N> {
     pub nodes: Vec<N>,
     pub leaves: Vec<Vec<u32>>,
     pub depth: usize,
+    pub sah: [f64; 2],
 }
 
-/// Collapse `bvh2` (not empty); `None` once it needs more than `max_nodes` nodes.
-pub(super) fn collapse<N: Encode>(bvh2: &Bvh2, max_nodes: usize) -> Option<Collapsed<N>> {
+/// Collapse `bvh2` (not empty) as `plan` says; `None` once it needs more than `max_nodes`
+/// nodes.
+pub(super) fn collapse<N: Encode>(plan: &Plan, max_nodes: usize) -> Option<Collapsed<N>> {
+    let bvh2 = plan.bvh2;
     let b = &bvh2.nodes;
-    let count = subtree_counts(bvh2);
-    let children = |n: usize| {
-        let f = b[n].first_index as usize;
-        [f, f + 1]
-    };
-    let is_leaf = |n: usize| b[n].prim_count > 0;
     let mut out = Collapsed {
         nodes: vec![N::new(b[0].aabb())],
         leaves: Vec::new(),
         depth: 1,
+        sah: [1.0, 0.0],
     };
+    let root = b[0].aabb().half_area() as f64;
     // (BVH2 node, its Node8, depth)
     let mut todo = vec![(0usize, 0usize, 1usize)];
+    let mut kids = Vec::with_capacity(8);
     while let Some((n, at, depth)) = todo.pop() {
         out.depth = out.depth.max(depth);
-        let mut kids: Vec<usize> = if is_leaf(n) || count[n] <= LEAF_MAX {
-            vec![n]
-        } else {
-            children(n).to_vec()
-        };
-        while kids.len() < 8 {
-            let open = (0..kids.len())
-                .filter(|&k| !is_leaf(kids[k]) && count[kids[k]] > LEAF_MAX)
-                .max_by(|&x, &y| {
-                    let a = |k: usize| b[kids[k]].aabb().half_area();
-                    a(x).total_cmp(&a(y))
-                });
-            let Some(k) = open else { break };
-            let [l, r] = children(kids[k]);
-            kids[k] = l;
-            kids.push(r);
-        }
+        kids.clear();
+        plan.slots(n, &mut kids);
         let (first_child, first_packet) = (out.nodes.len() as u32, out.leaves.len() as u32);
         out.nodes[at].bases(first_child, first_packet);
         for (slot, &k) in kids.iter().enumerate() {
             let aabb: &Aabb = b[k].aabb();
-            if count[k] <= LEAF_MAX {
+            let leaf = plan.is_leaf(k);
+            out.sah[leaf as usize] += aabb.half_area() as f64 / root;
+            if leaf {
                 out.nodes[at].set_leaf(slot, aabb, out.leaves.len() as u32);
                 out.leaves.push(leaf_slots(bvh2, k));
             } else {
@@ -78,30 +67,157 @@ pub(super) fn collapse<N: Encode>(bvh2: &Bvh2, max_nodes: usize) -> Option<Colla
     Some(out)
 }
 
-/// Primitives under each BVH2 node.
-fn subtree_counts(bvh2: &Bvh2) -> Vec<usize> {
+/// Cost of a node visit against a leaf packet test, in the surface-area model of [`Plan`].
+const NODE_COST: f32 = 1.0;
+const PACKET_COST: f32 = 1.0;
+
+/// Which BVH2 subtrees fill the slots of each 8-wide node: the choice of least expected cost in
+/// the surface-area model (Ylitie et al. 2017, §3), by dynamic programming bottom up over the
+/// BVH2. A subtree of at most [`LEAF_MAX`] primitives is one leaf, as in the greedy collapse:
+/// splitting it into smaller leaves lowered the model's cost a little more but filled the
+/// packets less (20–30 % more memory, no faster; docs/performance.md, section 1).
+pub(super) struct Plan<'a> {
+    bvh2: &'a Bvh2,
+    /// Per BVH2 node, its [`Choice::split`].
+    at: Vec<[u8; 8]>,
+    /// The least cost of the whole tree given one slot (its root's `Choice::cost[0]`).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(super) cost: f32,
+}
+
+/// What [`Plan`] finds for a BVH2 subtree.
+#[derive(Clone, Copy)]
+struct Choice {
+    /// `cost[i − 1]`: the least expected cost of the subtree given at most `i` slots of its
+    /// parent, a node visit costing [`NODE_COST`] and a packet test [`PACKET_COST`] times the
+    /// surface area of the box tested.
+    cost: [f32; 8],
+    /// `split[i − 1]` for i ≥ 2 slots: 0 to keep the subtree whole in one slot, else how many of
+    /// the `i` slots go to the left child (the rest to the right). `split[0]`: 0 if the
+    /// subtree is a leaf, else it is a node of its own and this is how many of its 8 slots go
+    /// to the left child.
+    split: [u8; 8],
+    /// Primitives in the subtree.
+    count: u32,
+}
+
+impl<'a> Plan<'a> {
+    pub(super) fn new(bvh2: &'a Bvh2) -> Plan<'a> {
+        let b = &bvh2.nodes;
+        let mut at = vec![[0u8; 8]; b.len()];
+        // the children's choices, left below right (the order is a post-order, left first)
+        let mut done: Vec<Choice> = Vec::new();
+        for (n, area, prims) in post_order(bvh2) {
+            let count = if prims > 0 {
+                assert!(prims as usize <= LEAF_MAX, "BVH2 leaf over a packet");
+                prims
+            } else {
+                let r = done.pop().expect("right child");
+                let l = done.pop().expect("left child");
+                let count = l.count + r.count;
+                if count as usize > LEAF_MAX {
+                    let c = Self::node(&l, &r, area, count);
+                    at[n] = c.split;
+                    done.push(c);
+                    continue;
+                }
+                count
+            };
+            // a leaf: one slot, whatever the slots given
+            done.push(Choice {
+                cost: [PACKET_COST * area; 8],
+                split: [0; 8],
+                count,
+            });
+        }
+        let cost = done.pop().expect("the root").cost[0];
+        Plan { bvh2, at, cost }
+    }
+
+    /// The choice for a subtree of more than [`LEAF_MAX`] primitives with box area `area`,
+    /// from its children's.
+    fn node(l: &Choice, r: &Choice, area: f32, count: u32) -> Choice {
+        // shared[i]: the two children share i + 1 slots (i >= 1), the best division
+        let mut shared = [(f32::INFINITY, 0u8); 8];
+        for (i, best) in shared.iter_mut().enumerate().skip(1) {
+            for k in 1..=i {
+                let c = l.cost[k - 1] + r.cost[i - k];
+                if c < best.0 {
+                    *best = (c, k as u8);
+                }
+            }
+        }
+        // a node of its own in one slot; with more slots, the children in them if cheaper
+        let one = NODE_COST * area + shared[7].0;
+        let mut c = Choice {
+            cost: [one; 8],
+            split: [shared[7].1, 0, 0, 0, 0, 0, 0, 0],
+            count,
+        };
+        for (i, &(cost, k)) in shared.iter().enumerate().skip(1) {
+            if cost < one {
+                (c.cost[i], c.split[i]) = (cost, k);
+            }
+        }
+        c
+    }
+
+    fn children(&self, n: usize) -> [usize; 2] {
+        let f = self.bvh2.nodes[n].first_index as usize;
+        [f, f + 1]
+    }
+
+    /// Whether the subtree `n` is a leaf.
+    pub(super) fn is_leaf(&self, n: usize) -> bool {
+        self.at[n][0] == 0
+    }
+
+    /// The slots of the 8-wide node for subtree `n` (a leaf only at the root: one slot).
+    fn slots(&self, n: usize, out: &mut Vec<usize>) {
+        if self.is_leaf(n) {
+            out.push(n);
+            return;
+        }
+        let [l, r] = self.children(n);
+        let k = self.at[n][0] as usize;
+        self.gather(l, k, out);
+        self.gather(r, 8 - k, out);
+    }
+
+    /// The subtrees that fill at most `i` slots for subtree `n`.
+    fn gather(&self, n: usize, i: usize, out: &mut Vec<usize>) {
+        let k = if i == 1 {
+            0
+        } else {
+            self.at[n][i - 1] as usize
+        };
+        if k == 0 {
+            out.push(n);
+        } else {
+            let [l, r] = self.children(n);
+            self.gather(l, k, out);
+            self.gather(r, i - k, out);
+        }
+    }
+}
+
+/// The BVH2's nodes, left child's subtree, right child's subtree, then the node, each with its
+/// box's half area and primitive count (read once: the nodes are scattered in memory).
+fn post_order(bvh2: &Bvh2) -> Vec<(usize, f32, u32)> {
     let b = &bvh2.nodes;
-    let mut count = vec![0usize; b.len()];
-    // children come after their parent in a depth-first pre-order of the tree; visit the
-    // tree explicitly, parents after children
     let mut order = Vec::with_capacity(b.len());
     let mut stack = vec![0usize];
+    // pre-order with the right child first, reversed below
     while let Some(n) = stack.pop() {
-        order.push(n);
-        if b[n].prim_count == 0 {
-            let f = b[n].first_index as usize;
+        let node = &b[n];
+        let (f, prims) = (node.first_index as usize, node.prim_count);
+        order.push((n, node.aabb().half_area(), prims));
+        if prims == 0 {
             stack.extend([f, f + 1]);
         }
     }
-    for &n in order.iter().rev() {
-        count[n] = if b[n].prim_count > 0 {
-            b[n].prim_count as usize
-        } else {
-            let f = b[n].first_index as usize;
-            count[f] + count[f + 1]
-        };
-    }
-    count
+    order.reverse();
+    order
 }
 
 /// The BVH2 primitive slots under node `n`.

@@ -33,7 +33,7 @@ use super::{Hit, Ray, Sphere, Triangle};
 
 mod collapse;
 mod nodes;
-use collapse::collapse;
+use collapse::{Plan, collapse};
 use nodes::{Entry, FULL_NODES_MAX, Node8, QNode8, TRay, Visit, WideNode};
 
 /// Precomputed primitive record (one per BVH primitive slot).
@@ -259,6 +259,9 @@ pub struct Accel {
     stack_size: usize,
     /// Use the AVX2 traversal (detected at build time).
     avx2: bool,
+    /// The tree's node visits and packet tests per ray through the root box, in the
+    /// surface-area model (`Collapsed::sah`).
+    sah: [f64; 2],
     /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 only): all triangles in original order,
     /// tested with a flat 8-wide loop (faster than any traversal at this size).
     flat: Vec<FlatBlock>,
@@ -301,6 +304,7 @@ impl Accel {
                 n_tris: 0,
                 n_spheres: 0,
                 stack_size: 0,
+                sah: [0.0; 2],
                 avx2: false,
                 flat: Vec::new(),
             };
@@ -367,7 +371,7 @@ impl Accel {
         drop(aabbs);
         bvh2.uses_spatial_splits = pre_split;
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-        let (nodes, (blocks, sphere_lanes), depth) =
+        let (nodes, (blocks, sphere_lanes), depth, sah) =
             Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
         Accel {
             nodes,
@@ -376,20 +380,22 @@ impl Accel {
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
             stack_size: 7 * depth + 1,
+            sah,
             avx2: has_avx2(),
             flat: Self::flat_blocks(triangles, spheres),
         }
     }
 
     /// The 8-wide nodes and the leaf packets for the binary BVH over primitive pieces
-    /// (`piece_to_prim`), in the layout `full` asks for (`None`: by size), and the tree's depth.
+    /// (`piece_to_prim`), in the layout `full` asks for (`None`: by size), the tree's depth and
+    /// its cost in the surface-area model.
     fn wide(
         bvh2: &obvhs::bvh2::Bvh2,
         piece_to_prim: &[u32],
         triangles: &[Triangle],
         spheres: &[Sphere],
         full: Option<bool>,
-    ) -> (Nodes, (Vec<TriBlock>, Vec<u8>), usize) {
+    ) -> (Nodes, Packets, usize, [f64; 2]) {
         let n_tris = triangles.len();
         let mixed = !spheres.is_empty();
         let prim = |piece: u32| {
@@ -413,16 +419,30 @@ impl Accel {
                 .map(|slots| slots.iter().map(|&s| bvh2.primitive_indices[s as usize]));
             pack_collapsed(leaves, n_tris as u32, mixed, prim)
         };
+        let plan = Plan::new(bvh2);
         let collapsed = (full != Some(false))
-            .then(|| collapse::<Node8>(bvh2, max_full))
+            .then(|| collapse::<Node8>(&plan, max_full))
             .flatten();
         match collapsed {
-            Some(c) => (Nodes::Full(c.nodes), packets(&c.leaves), c.depth),
+            Some(c) => (Nodes::Full(c.nodes), packets(&c.leaves), c.depth, c.sah),
             None => {
-                let c = collapse::<QNode8>(bvh2, usize::MAX).expect("no node limit");
-                (Nodes::Quantised(c.nodes), packets(&c.leaves), c.depth)
+                let c = collapse::<QNode8>(&plan, usize::MAX).expect("no node limit");
+                (
+                    Nodes::Quantised(c.nodes),
+                    packets(&c.leaves),
+                    c.depth,
+                    c.sah,
+                )
             }
         }
+    }
+
+    /// The tree's cost in the surface-area model, for profiling: the node visits and the packet
+    /// tests of a ray through the root's box (each box's area over the root's, summed over the
+    /// nodes and over the leaves; Embree's `verbose=2` statistics give the same for its trees).
+    #[doc(hidden)]
+    pub fn sah(&self) -> [f64; 2] {
+        self.sah
     }
 
     /// Sizes for profiling: (nodes, packets, lanes in use, bytes of nodes + packets + ids).
@@ -873,6 +893,9 @@ impl Accel {
     }
 }
 
+/// The leaf packets and, in scenes with spheres, each packet's sphere lanes (a bit mask).
+type Packets = (Vec<TriBlock>, Vec<u8>);
+
 /// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the leaf's pieces (a
 /// primitive split into several pieces of one leaf takes one lane).
 fn pack_collapsed<L: Iterator<Item = u32>>(
@@ -880,7 +903,7 @@ fn pack_collapsed<L: Iterator<Item = u32>>(
     n_tris: u32,
     mixed: bool,
     prim: impl Fn(u32) -> (u32, Prim),
-) -> (Vec<TriBlock>, Vec<u8>) {
+) -> Packets {
     let mut blocks = vec![TriBlock::UNUSED; leaves.len()];
     let mut sphere_lanes = if mixed {
         vec![0; blocks.len()]
@@ -1263,6 +1286,99 @@ mod tests {
         let depth = (Accel::build(&tris, &spheres).stack_size - 1) / 7;
         assert!(depth < 40, "depth {depth}");
         check(&tris, &spheres, 2000, 9);
+    }
+
+    /// The surface-area model's cost of obvhs' greedy collapse (before [`Plan`]): a node takes
+    /// the two children of a binary node and opens the child with the largest area until it
+    /// has 8, a subtree of at most 8 primitives is a leaf. As `Collapsed::sah`, summed.
+    fn greedy_sah(bvh2: &obvhs::bvh2::Bvh2) -> f64 {
+        let b = &bvh2.nodes;
+        let count = |n: usize| {
+            let (mut c, mut stack) = (0, vec![n]);
+            while let Some(n) = stack.pop() {
+                let f = b[n].first_index as usize;
+                match b[n].prim_count {
+                    0 => stack.extend([f, f + 1]),
+                    k => c += k as usize,
+                }
+            }
+            c
+        };
+        let area = |n: usize| b[n].aabb().half_area() as f64 / b[0].aabb().half_area() as f64;
+        let children = |n: usize| [b[n].first_index as usize, b[n].first_index as usize + 1];
+        let (mut sah, mut todo) = (1.0, vec![0usize]);
+        while let Some(n) = todo.pop() {
+            let mut kids = if count(n) <= 8 {
+                vec![n]
+            } else {
+                children(n).to_vec()
+            };
+            while kids.len() < 8 {
+                let open = (0..kids.len())
+                    .filter(|&k| count(kids[k]) > 8)
+                    .max_by(|&x, &y| area(kids[x]).total_cmp(&area(kids[y])));
+                let Some(k) = open else { break };
+                let [l, r] = children(kids[k]);
+                kids[k] = l;
+                kids.push(r);
+            }
+            for k in kids {
+                sah += area(k);
+                if count(k) > 8 {
+                    todo.push(k);
+                }
+            }
+        }
+        sah
+    }
+
+    /// The collapse is the surface-area-optimal one: the tree it builds costs what its plan
+    /// says, never more than the greedy collapse's over the same binary tree, and holds every
+    /// primitive in exactly one leaf of 1 to 8.
+    #[test]
+    fn collapse_is_surface_area_optimal() {
+        for (seed, n) in [(3u64, 3000usize), (4, 300), (5, 9), (6, 8), (7, 1)] {
+            let mut rng = Pcg64::seed_from_u64(seed);
+            let (tris, _) = scene(&mut rng, n, 0);
+            let aabbs: Vec<Aabb> = tris
+                .iter()
+                .map(|t| Aabb::from_points(&[t.v[0].into(), t.v[1].into(), t.v[2].into()]))
+                .collect();
+            let p = BvhBuildParams::medium_build();
+            let bvh2 = PlocBuilder::with_capacity(n).build(
+                p.ploc_search_distance,
+                &aabbs,
+                (0..n as u32).collect(),
+                p.sort_precision,
+                p.search_depth_threshold,
+            );
+            let plan = Plan::new(&bvh2);
+            let c = collapse::<Node8>(&plan, usize::MAX).expect("no node limit");
+            let mut seen = vec![0u32; n];
+            for leaf in &c.leaves {
+                assert!((1..=8).contains(&leaf.len()), "leaf of {}", leaf.len());
+                for &s in leaf {
+                    seen[bvh2.primitive_indices[s as usize] as usize] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&k| k == 1), "n = {n}: {seen:?}");
+            let sah = c.sah[0] + c.sah[1];
+            // the root's wide node is there even when the whole tree is one leaf
+            let planned = plan.cost as f64 / bvh2.nodes[0].aabb().half_area() as f64
+                + plan.is_leaf(0) as u32 as f64;
+            assert!(
+                (sah - planned).abs() <= 1e-5 * sah,
+                "n = {n}: {sah} against {planned}"
+            );
+            let greedy = greedy_sah(&bvh2);
+            assert!(
+                sah <= greedy * (1.0 + 1e-5),
+                "n = {n}: {sah} against greedy {greedy}"
+            );
+            if n == 3000 {
+                assert!(sah < 0.99 * greedy, "{sah} against greedy {greedy}");
+            }
+        }
     }
 
     #[test]
