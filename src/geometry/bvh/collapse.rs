@@ -138,8 +138,9 @@ impl<'a> Plan<'a> {
     /// The choice for a subtree of more than [`LEAF_MAX`] primitives with box area `area`,
     /// from its children's.
     fn node(l: &Choice, r: &Choice, area: f32, count: u32) -> Choice {
-        // shared[i]: the two children share i + 1 slots (i >= 1), the best division
-        let mut shared = [(f32::INFINITY, 0u8); 8];
+        // shared[i]: the two children share i + 1 slots (i >= 1), the best division (one slot
+        // each side when no cost is finite, so a node never passes for a leaf)
+        let mut shared = [(f32::INFINITY, 1u8); 8];
         for (i, best) in shared.iter_mut().enumerate().skip(1) {
             for k in 1..=i {
                 let c = l.cost[k - 1] + r.cost[i - k];

@@ -1381,6 +1381,34 @@ mod tests {
         }
     }
 
+    /// Boxes so large that their areas overflow f32 (beyond the scene loader's `MAX_COORD`,
+    /// which `Accel::build` does not check) make every cost infinite; the plan still divides
+    /// each node's slots between its children and keeps every leaf within one packet.
+    #[test]
+    fn collapse_with_overflowing_costs_keeps_leaves_in_packets() {
+        let mut rng = Pcg64::seed_from_u64(11);
+        let (tris, _) = scene(&mut rng, 500, 0);
+        let aabbs: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let p = t.v.map(|v| Vec3A::from(v * 1e21));
+                Aabb::from_points(&p)
+            })
+            .collect();
+        assert!(aabbs[0].half_area().is_infinite());
+        let p = BvhBuildParams::medium_build();
+        let bvh2 = PlocBuilder::with_capacity(500).build(
+            p.ploc_search_distance,
+            &aabbs,
+            (0..500).collect(),
+            p.sort_precision,
+            p.search_depth_threshold,
+        );
+        let c = collapse::<Node8>(&Plan::new(&bvh2), usize::MAX).expect("no node limit");
+        assert_eq!(c.leaves.iter().map(Vec::len).sum::<usize>(), 500);
+        assert!(c.leaves.iter().all(|l| (1..=8).contains(&l.len())));
+    }
+
     #[test]
     fn random_soup_with_spheres() {
         let mut rng = Pcg64::seed_from_u64(1);
