@@ -5,7 +5,11 @@
 //!   10^(-1/3)), rays from random points in the cube in random directions;
 //! - `sphere1m`: an icosphere subdivided 8 times (1,310,720 triangles) with a smooth radial
 //!   displacement, rays from a shell around it towards random points near its centre;
-//! - `grid1m`: a 708 × 708 height field (1,002,528 triangles), rays from above it downwards.
+//! - `grid1m`: a 708 × 708 height field (1,002,528 triangles), rays from above it downwards;
+//! - mid-size sets of the same kinds, between soup100k and the 1M sets, on which the node
+//!   layout changes (`FULL_NODES_MAX` in src/geometry/bvh/nodes.rs): `soup300k` and `soup600k`
+//!   (300,000 and 600,000 triangles), `sphere300k` (subdivided 7 times, 327,680),
+//!   `grid300k` and `grid600k` (387 × 387 and 548 × 548: 299,538 and 600,608).
 //!
 //! The reference hits are this build's closest hits (`Accel::intersect`); scripts/embree/run.sh
 //! checks them against Embree's.
@@ -29,10 +33,11 @@ fn unit(rng: &mut impl Rng) -> Vec3 {
     }
 }
 
-fn soup(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
-    let s = 0.1 * 0.1f32.powf(1.0 / 3.0);
+fn soup(rng: &mut impl Rng, n: usize) -> (Vec<Triangle>, Vec<Ray>) {
+    // soup100k's edges at 100 000 triangles, scaled with the mean spacing
+    let s = 0.1 * (1e5 / n as f32).powf(1.0 / 3.0);
     let mut p = || Vec3::new(rng.random(), rng.random(), rng.random());
-    let tris = (0..1_000_000)
+    let tris = (0..n)
         .map(|_| {
             let c = p();
             Triangle::new(c, c + (p() - 0.5) * s, c + (p() - 0.5) * s)
@@ -47,7 +52,7 @@ fn soup(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
     (tris, rays)
 }
 
-fn sphere(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
+fn sphere(rng: &mut impl Rng, levels: usize) -> (Vec<Triangle>, Vec<Ray>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
         (-1.0, t, 0.0),
@@ -88,7 +93,7 @@ fn sphere(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
         [8, 6, 7],
         [9, 8, 1],
     ];
-    for _ in 0..8 {
+    for _ in 0..levels {
         let mut mid = std::collections::HashMap::new();
         let mut m = |a: usize, b: usize, v: &mut Vec<Vec3>| {
             *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
@@ -119,8 +124,7 @@ fn sphere(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
     (tris, rays)
 }
 
-fn grid(rng: &mut impl Rng) -> (Vec<Triangle>, Vec<Ray>) {
-    let n = 708;
+fn grid(rng: &mut impl Rng, n: usize) -> (Vec<Triangle>, Vec<Ray>) {
     let h = |i: usize, j: usize| {
         let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
         let z = 0.1 * (11.0 * x).sin() * (9.0 * y).cos() + 0.02 * (53.0 * x + 37.0 * y).sin();
@@ -153,11 +157,18 @@ fn main() {
     let name = std::env::args().nth(1).unwrap_or_default();
     let mut rng = rand_pcg::Pcg64::seed_from_u64(16);
     let (tris, rays) = match name.as_str() {
-        "soup1m" => soup(&mut rng),
-        "sphere1m" => sphere(&mut rng),
-        "grid1m" => grid(&mut rng),
+        "soup1m" => soup(&mut rng, 1_000_000),
+        "sphere1m" => sphere(&mut rng, 8),
+        "grid1m" => grid(&mut rng, 708),
+        "soup300k" => soup(&mut rng, 300_000),
+        "sphere300k" => sphere(&mut rng, 7),
+        "grid300k" => grid(&mut rng, 387),
+        "soup600k" => soup(&mut rng, 600_000),
+        "grid600k" => grid(&mut rng, 548),
         _ => {
-            eprintln!("usage: make_rayset soup1m|sphere1m|grid1m");
+            eprintln!(
+                "usage: make_rayset soup1m|sphere1m|grid1m|soup300k|soup600k|sphere300k|grid300k|grid600k"
+            );
             std::process::exit(2);
         }
     };

@@ -17,11 +17,12 @@ use crate::geometry::Ray;
 /// Bytes of one leaf packet (`TriBlock`).
 pub(super) const PACKET_BYTES: usize = 320;
 
-/// Largest BVH (in nodes) traced with [`Node8`]: 8 MiB of full nodes; larger ones are
-/// quantised. Measured: soup100k (4 800 nodes) 2 % faster with full nodes than quantised; the
-/// 1M-triangle sets (49 000–70 000 nodes) as fast with full nodes as with obvhs's CWBVH, which
-/// the quantised collapsed tree beats by up to 16 %.
-pub(super) const FULL_NODES_MAX: usize = (8 << 20) / std::mem::size_of::<Node8>();
+/// Largest BVH (in nodes) traced with [`Node8`]: 2 MiB of full nodes; larger ones are
+/// quantised. Measured (medians of paired rounds, the quantised layout's speed over the full
+/// one's; docs/performance.md, section 1): soup100k (3 463 nodes) 0.92×, the 300k-triangle sets
+/// (10 300–11 000 nodes) 1.01–1.03×, the 600k sets (20 400–20 500) 1.10–1.11×, the 1M sets
+/// (34 000–44 000) 1.14–1.21×.
+pub(super) const FULL_NODES_MAX: usize = (2 << 20) / std::mem::size_of::<Node8>();
 
 /// Traversal ray: origin, direction, clamped reciprocal direction.
 #[derive(Clone, Copy)]
