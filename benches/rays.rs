@@ -1,6 +1,7 @@
 //! Closest-hit throughput on the stored ray sets (`benches/data/rays/`) and, when
-//! `cargo run --release --example make_rayset soup1m|sphere1m|grid1m` has written them to
-//! `target/rays/`, the 1M-triangle sets; 1 thread (the Embree 3 comparison of
+//! `cargo run --release --example make_rayset NAME` has written them to `target/rays/`, the
+//! mid-size (`soup300k`, `sphere300k`, `grid300k`, `soup600k`, `grid600k`) and 1M-triangle
+//! (`soup1m`, `sphere1m`, `grid1m`) sets; 1 thread (the Embree 3 comparison of
 //! scripts/embree/run.sh and docs/performance.md) and 2 threads via rayon.
 //!
 //! Before timing, the hits are verified against the stored reference hits (t relative 1e-4,
@@ -20,7 +21,17 @@ const CHUNK: usize = 1024;
 fn bench_rays(c: &mut Criterion) {
     let mut sets = vec!["cbox", "soup100k"];
     let generated = concat!(env!("CARGO_MANIFEST_DIR"), "/target/rays");
-    for name in ["soup1m", "sphere1m", "grid1m"] {
+    let optional = [
+        "soup300k",
+        "sphere300k",
+        "grid300k",
+        "soup600k",
+        "grid600k",
+        "soup1m",
+        "sphere1m",
+        "grid1m",
+    ];
+    for name in optional {
         if std::path::Path::new(&format!("{generated}/{name}_rays.bin")).exists() {
             sets.push(name);
         } else {
