@@ -248,10 +248,12 @@ impl Nodes {
 pub struct Accel {
     /// The nodes (root first), in the layout that suits the BVH's size.
     nodes: Nodes,
-    /// The nodes' leaf primitives, 8 lanes a packet; node `n`'s lanes start at
-    /// `n.primitive_base_idx` (a multiple of 8).
+    /// The leaves' primitives, one 8-lane packet a leaf, each node's leaves consecutive (the
+    /// node layouts address them).
     blocks: Vec<TriBlock>,
-    /// Per packet: the lanes that hold spheres (empty when the scene has none).
+    /// Per packet: the lanes that hold spheres (empty when the scene has none; the traversal
+    /// for scenes with spheres, which trees too deep for the stack array take in any scene,
+    /// reads it with a bounds check).
     sphere_lanes: Vec<u8>,
     n_tris: u32,
     n_spheres: u32,
@@ -510,6 +512,7 @@ impl Accel {
                 self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
             }
         } else {
+            // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
             self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
         }
@@ -846,6 +849,7 @@ impl Accel {
                 self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
             }
         } else {
+            // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
             self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
         }
