@@ -1,9 +1,14 @@
 //! Single-threaded ray throughput on the stored ray sets (for A/B runs and callgrind):
 //! `target/release/examples/raybench SET [N_RAYS] [REPS] [occ]`.
+//!
+//! The BVH is built as scenes build it (`Accel::build`, quality `auto`) unless `PRESET` says
+//! otherwise: `auto`, `high` or `medium` (the scene's `accel.quality`), or one of obvhs' other
+//! presets (`fastest`, `very_fast`, `fast`, `slow`, `very_slow`), which `LEAF`, `REINS`,
+//! `NOSPLIT` and `LAYOUT=full|quantised` modify for experiments.
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
 
-use stokes::geometry::{Accel, Ray};
+use stokes::geometry::{Accel, BuildQuality, Ray};
 
 #[inline(never)]
 fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
@@ -27,17 +32,35 @@ fn main() {
         .min(set.rays.len());
     let reps: usize = a.get(3).map_or(5, |s| s.parse().unwrap());
     let occ = a.get(4).is_some_and(|s| s == "occ");
-    let accel = match std::env::var("PRESET").as_deref() {
-        Ok(p) => {
+    let preset = std::env::var("PRESET")
+        .ok()
+        .filter(|p| !p.is_empty())
+        .unwrap_or_else(|| "auto".into());
+    let t0 = std::time::Instant::now();
+    let quality = match preset.as_str() {
+        "auto" => Some(BuildQuality::Auto),
+        "high" => Some(BuildQuality::High),
+        "medium"
+            if ["LEAF", "REINS", "NOSPLIT", "LAYOUT"]
+                .iter()
+                .all(|v| std::env::var(v).is_err()) =>
+        {
+            Some(BuildQuality::Medium)
+        }
+        _ => None,
+    };
+    let accel = match quality {
+        Some(q) => Accel::build_quality(&set.tris, &[], q),
+        None => {
             use obvhs::BvhBuildParams as B;
-            let mut params = match p {
+            let mut params = match preset.as_str() {
                 "fastest" => B::fastest_build(),
                 "very_fast" => B::very_fast_build(),
                 "fast" => B::fast_build(),
                 "medium" => B::medium_build(),
                 "slow" => B::slow_build(),
                 "very_slow" => B::very_slow_build(),
-                _ => panic!("preset"),
+                _ => panic!("PRESET: unknown preset {preset}"),
             };
             if let Ok(l) = std::env::var("LEAF") {
                 params.max_prims_per_leaf = l.parse().unwrap();
@@ -46,15 +69,15 @@ fn main() {
                 params.reinsertion_batch_ratio = l.parse().unwrap();
             }
             let split = std::env::var("NOSPLIT").is_err();
-            let t0 = std::time::Instant::now();
             // LAYOUT=full|quantised forces the node layout (default: by size)
             let full = std::env::var("LAYOUT").ok().map(|l| l == "full");
-            let a = Accel::build_with_layout(&set.tris, &[], params, split, full);
-            eprintln!("build {p} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
-            a
+            Accel::build_with_layout(&set.tris, &[], params, split, full)
         }
-        Err(_) => Accel::build(&set.tris, &[]),
     };
+    let label = accel
+        .quality()
+        .map_or(preset.clone(), |q| q.1.name().to_string());
+    eprintln!("build {label} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
     let mut best = f64::INFINITY;
     let mut times = vec![];
     let mut chk = 0.0;

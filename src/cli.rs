@@ -406,6 +406,23 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         s.triangles.len(),
         s.spheres.len()
     );
+    let (nodes, packets, _, bytes) = s.accel.layout();
+    let quality = match s.accel.quality() {
+        Some((crate::geometry::BuildQuality::Auto, q)) => format!("auto → {}", q.name()),
+        Some((q, _)) => q.name().to_string(),
+        None => "custom".to_string(),
+    };
+    println!(
+        "acceleration: BVH8 of quality {quality}, built in {:.3} s: {nodes} nodes, {packets} leaf \
+         packets, {:.2} MB{}",
+        s.accel.build_seconds(),
+        bytes as f64 / 1e6,
+        if s.accel.is_flat() {
+            "; traced as one flat loop over the triangles"
+        } else {
+            ""
+        }
+    );
     for (n, m) in s.material_names.iter().zip(&s.materials) {
         use crate::material::Bbrrdf;
         let kind = match m {

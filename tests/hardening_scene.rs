@@ -543,6 +543,28 @@ fn messages_name_the_field_that_is_wrong() {
     expect_error("tiny", &v, "shapes[1]", "zero area");
 }
 
+/// `accel.quality` chooses the BVH build; a wrong value or an unknown key there is an input
+/// error naming the field, and without the key the default (`auto`) is used.
+#[test]
+fn the_accel_quality_is_read_and_checked() {
+    use stokes::geometry::BuildQuality;
+    let q = |tag: &str, v: &Value| load(tag, v, &[]).unwrap().accel.quality();
+    let auto = Some((BuildQuality::Auto, BuildQuality::High));
+    assert_eq!(q("accel-none", &good()), auto);
+    for (name, want) in [
+        ("auto", auto),
+        ("medium", Some((BuildQuality::Medium, BuildQuality::Medium))),
+        ("high", Some((BuildQuality::High, BuildQuality::High))),
+    ] {
+        let v = with(|v| v["accel"] = json!({ "quality": name }));
+        assert_eq!(q(&format!("accel-{name}"), &v), want, "{name}");
+    }
+    let v = with(|v| v["accel"] = json!({ "quality": "best" }));
+    expect_error("accel-bad", &v, "accel.quality", "unknown variant `best`");
+    let v = with(|v| v["accel"] = json!({ "qualty": "high" }));
+    expect_error("accel-key", &v, "accel.qualty", "unknown field `qualty`");
+}
+
 // ---------------------------------------------------------------- named spectra
 
 #[test]

@@ -18,10 +18,11 @@
 # Embree: scripts/embree/raybench.c (cc -O3 -march=native) -> target/embree-raybench, one
 # thread, rtcIntersect1, device config "threads=1" (single-threaded build), FTZ/DAZ on. It also
 # checks its hits against the stored reference hits.
-# stokes: target/release/examples/raybench SET N_RAYS REPS with PRESET=medium, which builds
-# exactly as Accel::build does (obvhs medium_build, pre-split) and prints the build time.
-# Set STOKES_PRESET to time another obvhs preset, EMBREE_CONFIG to change the Embree device
-# config (default "threads=1"; e.g. "threads=1,isa=avx2").
+# stokes: target/release/examples/raybench SET N_RAYS REPS, which builds as a scene does by
+# default (`accel.quality` auto: the high build up to 250 000 primitives, medium above) and
+# prints the build time. Set STOKES_PRESET to medium or high (or another obvhs preset, see
+# examples/raybench.rs) to time that build, EMBREE_CONFIG to change the Embree device config
+# (default "threads=1"; e.g. "threads=1,isa=avx2").
 set -u
 cd "$(dirname "$0")/../.."
 
@@ -100,7 +101,7 @@ IFS=, read -r -a quals <<<"$quality"
 log=$target/embree-raybench.log
 : >"$log"
 echo "$(nproc) CPUs, load average: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log"
-declare -A emed smed sbuild ebuild echk schk ntris
+declare -A emed smed sbuild squal ebuild echk schk ntris
 checks=()
 for ((r = 1; r <= rounds; r++)); do
   for s in "${sets[@]}"; do
@@ -123,12 +124,13 @@ for ((r = 1; r <= rounds; r++)); do
       esac
     done <<<"$out"
     # stokes
-    out=$(env -u LEAF -u REINS -u NOSPLIT PRESET="${STOKES_PRESET:-medium}" \
+    out=$(env -u LEAF -u REINS -u NOSPLIT PRESET="${STOKES_PRESET:-auto}" \
       "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
     printf '%s\n' "$out" >>"$log"
     m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$out")
     smed[$s]+=" $m"
     sbuild[$s]+=" $(sed -n 's/^build [a-z_]* \([0-9.]*\) ms.*/\1/p' <<<"$out")"
+    squal[$s]=$(sed -n 's/^build \([a-z_]*\) [0-9.]* ms.*/\1/p' <<<"$out")
     schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
     echo "round $r: stokes $s median $m Mrays/s"
   done
@@ -155,11 +157,11 @@ done
 echo
 printf '%-10s' "build ms"
 for q in "${quals[@]}"; do printf ' %13s' "Embree $q"; done
-printf ' %9s\n' "stokes"
+printf ' %9s\n' "stokes (quality)"
 for s in "${sets[@]}"; do
   printf '%-10s' "$s"
   for q in "${quals[@]}"; do printf ' %13.2f' "$(median ${ebuild[$s,$q]})"; done
-  printf ' %9.2f\n' "$(median ${sbuild[$s]})"
+  printf ' %9.2f (%s)\n' "$(median ${sbuild[$s]})" "${squal[$s]}"
 done
 echo
 echo "Embree vs the stored reference hits (round 1; t relative 1e-4 + 1e-6, ties allowed):"

@@ -81,7 +81,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
     }
     let mut prims = b.tri_info;
     prims.extend(b.sphere_info);
-    let accel = Accel::build(&b.triangles, &b.spheres);
+    let accel = Accel::build_quality(&b.triangles, &b.spheres, f.accel.quality);
     let triangle_normals = b
         .triangles
         .iter()

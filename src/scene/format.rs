@@ -36,6 +36,17 @@ pub struct SceneFile {
     pub media: BTreeMap<String, Value>,
     /// Each a [`ShapeDesc`]; [`read`] reads them.
     pub shapes: Vec<Value>,
+    /// The acceleration structure's settings.
+    #[serde(default)]
+    pub accel: AccelDesc,
+}
+
+/// `"accel": {"quality": "auto" | "medium" | "high"}` (docs/scene-format.md).
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct AccelDesc {
+    #[serde(default)]
+    pub quality: crate::geometry::BuildQuality,
 }
 
 /// Read the scene file `file` with text `text`: its top level, then every shape. A leading

@@ -1,6 +1,11 @@
 //! Acceleration structure: one wide BVH8 over triangles and analytic spheres, from the binary
 //! BVH that `obvhs` builds (PLOC with pre-split triangles, then reinsertion).
 //!
+//! Build quality ([`BuildQuality`]): the reinsertion pass can revisit a few nodes (`medium`) or
+//! every node (`high`, 5–10× the build time for a tree traced 4–12 % faster);
+//! `auto`, the default, takes `high` up to [`AUTO_HIGH_MAX`] primitives, where that build stays
+//! under about a second.
+//!
 //! Nodes ([`nodes`]): the binary BVH is collapsed ([`collapse`]) to 8-wide nodes with leaves of
 //! up to 8 primitives, one packet each. While that takes at most [`nodes::FULL_NODES_MAX`] nodes
 //! they keep the child boxes in full precision ([`nodes::Node8`], 256 bytes, no decoding per
@@ -154,6 +159,52 @@ fn nearest_lane(mut h: u32, t: &[f32; 8]) -> usize {
     best
 }
 
+/// How much time the build spends on the tree's quality (as Embree's `RTC_BUILD_QUALITY_*`);
+/// a scene sets it with `"accel": {"quality": ...}` (docs/scene-format.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BuildQuality {
+    /// `High` up to [`AUTO_HIGH_MAX`] primitives, `Medium` above.
+    #[default]
+    Auto,
+    /// obvhs' medium preset: PLOC, then reinsertion of 5 % of the nodes.
+    Medium,
+    /// obvhs' very-slow preset: a finer PLOC sort, then reinsertion of every node.
+    High,
+}
+
+/// Largest scene (triangles and spheres) that [`BuildQuality::Auto`] builds with `High`: about
+/// a second of build at this size (0.2–0.3 s for 100 000 triangles, 1.3–1.9 s for 300 000 on
+/// the machine of docs/performance.md).
+pub const AUTO_HIGH_MAX: usize = 250_000;
+
+impl BuildQuality {
+    /// `Medium` or `High`: the quality `Auto` takes for `n` primitives, or `self`.
+    pub fn resolve(self, n: usize) -> BuildQuality {
+        match self {
+            BuildQuality::Auto if n <= AUTO_HIGH_MAX => BuildQuality::High,
+            BuildQuality::Auto => BuildQuality::Medium,
+            q => q,
+        }
+    }
+
+    /// The obvhs parameters of the resolved quality.
+    fn params(self, n: usize) -> BvhBuildParams {
+        match self.resolve(n) {
+            BuildQuality::High => BvhBuildParams::very_slow_build(),
+            _ => BvhBuildParams::medium_build(),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildQuality::Auto => "auto",
+            BuildQuality::Medium => "medium",
+            BuildQuality::High => "high",
+        }
+    }
+}
+
 /// Stack size for the on-stack traversal stack; deeper BVHs use a heap stack.
 const STACK: usize = 192;
 
@@ -267,11 +318,40 @@ pub struct Accel {
     /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 only): all triangles in original order,
     /// tested with a flat 8-wide loop (faster than any traversal at this size).
     flat: Vec<FlatBlock>,
+    /// The quality asked for and the one it was built with (`Medium` or `High`); `None` for
+    /// explicit obvhs parameters. Then the build's wall time in seconds.
+    quality: Option<(BuildQuality, BuildQuality)>,
+    build_seconds: f64,
 }
 
 impl Accel {
+    /// Build with the default quality ([`BuildQuality::Auto`]).
     pub fn build(triangles: &[Triangle], spheres: &[Sphere]) -> Accel {
-        Self::build_with(triangles, spheres, BvhBuildParams::medium_build(), true)
+        Self::build_quality(triangles, spheres, BuildQuality::Auto)
+    }
+
+    /// Build with `quality`.
+    pub fn build_quality(triangles: &[Triangle], spheres: &[Sphere], q: BuildQuality) -> Accel {
+        let n = triangles.len() + spheres.len();
+        let mut a = Self::build_with(triangles, spheres, q.params(n), true);
+        a.quality = Some((q, q.resolve(n)));
+        a
+    }
+
+    /// The quality asked for and the one the BVH was built with (`Medium` or `High`); `None`
+    /// for explicit obvhs parameters.
+    pub fn quality(&self) -> Option<(BuildQuality, BuildQuality)> {
+        self.quality
+    }
+
+    /// The build's wall time in seconds.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
+
+    /// Whether rays are traced with the flat loop of tiny scenes instead of the BVH.
+    pub fn is_flat(&self) -> bool {
+        !self.flat.is_empty()
     }
 
     /// Build with explicit obvhs parameters (`pre_split`: split large triangles' boxes).
@@ -295,6 +375,7 @@ impl Accel {
         pre_split: bool,
         full: Option<bool>,
     ) -> Accel {
+        let start = std::time::Instant::now();
         let n_tris = triangles.len();
         let n = n_tris + spheres.len();
         assert!(n < u32::MAX as usize, "too many primitives");
@@ -309,6 +390,8 @@ impl Accel {
                 sah: [0.0; 2],
                 avx2: false,
                 flat: Vec::new(),
+                quality: None,
+                build_seconds: 0.0,
             };
         }
 
@@ -367,12 +450,14 @@ impl Accel {
             params.sort_precision,
             params.search_depth_threshold,
         );
+        drop(aabbs);
+        bvh2.uses_spatial_splits = pre_split;
+        // Reinsertion still sees coincident boxes spread: among identical boxes every move is
+        // free, and reinserting them all (`BuildQuality::High`) chained them into a deep tree.
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
         if let Some(true_aabbs) = true_aabbs {
             restore_aabbs(&mut bvh2, &true_aabbs);
         }
-        drop(aabbs);
-        bvh2.uses_spatial_splits = pre_split;
-        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
         let (nodes, (blocks, sphere_lanes), depth, sah) =
             Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
         Accel {
@@ -385,6 +470,8 @@ impl Accel {
             sah,
             avx2: has_avx2(),
             flat: Self::flat_blocks(triangles, spheres),
+            quality: None,
+            build_seconds: start.elapsed().as_secs_f64(),
         }
     }
 
@@ -1171,13 +1258,26 @@ mod tests {
     }
 
     fn check(tris: &[Triangle], spheres: &[Sphere], n_rays: usize, seed: u64) {
+        check_quality(BuildQuality::Auto, tris, spheres, n_rays, seed);
+    }
+
+    /// Built at quality `q`, in both layouts and both traversals: brute force's hits.
+    fn check_quality(
+        q: BuildQuality,
+        tris: &[Triangle],
+        spheres: &[Sphere],
+        n_rays: usize,
+        seed: u64,
+    ) {
         let mut rng = Pcg64::seed_from_u64(seed);
-        let accel = Accel::build(tris, spheres);
+        let accel = Accel::build_quality(tris, spheres, q);
         assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
         // Both node layouts, and the portable traversal, must agree with the AVX2 one where
         // both exist.
         let layout = |full: bool, avx2: bool| {
-            let params = BvhBuildParams::medium_build();
+            // the default build's parameters, so that ties among coincident primitives break
+            // alike
+            let params = q.params(tris.len() + spheres.len());
             let mut a = Accel::build_with_layout(tris, spheres, params, true, Some(full));
             a.avx2 &= avx2;
             a
@@ -1427,6 +1527,33 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(3);
         let (t, s) = scene(&mut rng, 5000, 0);
         check(&t, &s, 5000, 4);
+    }
+
+    /// `Auto` builds `High` up to `AUTO_HIGH_MAX` primitives and `Medium` above; an `Accel`
+    /// records what was asked and built. The `High` tree of a soup costs less in the
+    /// surface-area model than the `Medium` one (its purpose); both give brute force's hits
+    /// (the other tests check `Auto` builds, here `High`).
+    #[test]
+    fn build_quality() {
+        use BuildQuality::*;
+        assert_eq!(Auto.resolve(AUTO_HIGH_MAX), High);
+        assert_eq!(Auto.resolve(AUTO_HIGH_MAX + 1), Medium);
+        assert_eq!(Medium.resolve(10), Medium);
+        assert_eq!(High.resolve(AUTO_HIGH_MAX + 1), High);
+        let mut rng = Pcg64::seed_from_u64(7);
+        let (t, s) = scene(&mut rng, 4000, 0);
+        let sah = |q| {
+            let a = Accel::build_quality(&t, &s, q);
+            assert_eq!(a.quality(), Some((q, q.resolve(t.len()))));
+            assert!(a.build_seconds() > 0.0);
+            a.sah()[0] + a.sah()[1]
+        };
+        let (high, medium) = (sah(High), sah(Medium));
+        assert!(high < medium, "high {high} medium {medium}");
+        assert_eq!(Accel::build(&t, &s).quality(), Some((Auto, High)));
+        // the other tests check the default (here `High`) builds
+        let (t, s) = scene(&mut rng, 2000, 100);
+        check_quality(Medium, &t, &s, 3000, 8);
     }
 
     #[test]
