@@ -196,6 +196,7 @@ impl BuildQuality {
         }
     }
 
+    /// The name in scene files.
     pub fn name(self) -> &'static str {
         match self {
             BuildQuality::Auto => "auto",
@@ -1101,9 +1102,9 @@ const COINCIDENT_MIN: usize = 8;
 /// Either way the build merges one pair per pass: quadratic in the group's size, with a tree as
 /// deep as the group (5000 copies of one quad took 2.4 s, 70,000 aborted after ten minutes).
 /// Each box of a group of at least [`COINCIDENT_MIN`] is therefore translated by a deterministic
-/// pseudo-random offset of up to 1e-3 of the group's largest box for the build only, which
-/// spreads the group like a small point cloud; returns the true boxes when any box was moved
-/// (the caller puts them back with [`restore_aabbs`]). Scenes without such groups build exactly
+/// pseudo-random offset of up to 1e-3 of the group's largest box for the PLOC build and the
+/// reinsertion, which spreads the group like a small point cloud; returns the true boxes when
+/// any box was moved (the caller puts them back with [`restore_aabbs`]). Scenes without such groups build exactly
 /// as before.
 fn spread_coincident(aabbs: &mut [Aabb]) -> Option<Vec<Aabb>> {
     let key = |b: &Aabb| (b.min + b.max).to_array().map(|x| (x + 0.0).to_bits());
