@@ -6,6 +6,10 @@
 //!
 //! Before timing, the hits are verified against the stored reference hits (t relative 1e-4,
 //! primitive ids equal or tied) and the match rates printed.
+//!
+//! The groups `build` and `closest_hit_quality` time the two BVH build qualities on soup100k
+//! (`accel.quality` `medium` and `high`; docs/performance.md §1): the build, and 1-thread
+//! closest hits on each tree.
 
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
@@ -14,7 +18,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Duration;
-use stokes::geometry::Accel;
+use stokes::geometry::{Accel, BuildQuality};
 
 const CHUNK: usize = 1024;
 
@@ -41,6 +45,49 @@ fn bench_rays(c: &mut Criterion) {
     for threads in [1, 2] {
         bench_threads(c, &sets, threads);
     }
+    bench_quality(c);
+}
+
+/// soup100k built at each quality: the build's time, and 1-thread closest hits on the tree.
+fn bench_quality(c: &mut Criterion) {
+    let set = ray_sets::load("soup100k");
+    let qualities = [BuildQuality::Medium, BuildQuality::High];
+    let mut build = c.benchmark_group("build");
+    build.sample_size(10);
+    for q in qualities {
+        build.bench_function(format!("soup100k/{}", q.name()), |b| {
+            b.iter(|| black_box(Accel::build_quality(&set.tris, &[], q)))
+        });
+    }
+    build.finish();
+    let mut group = c.benchmark_group("closest_hit_quality");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_secs(1));
+    group.measurement_time(Duration::from_secs(3));
+    group.throughput(Throughput::Elements(set.rays.len() as u64));
+    for q in qualities {
+        let accel = Accel::build_quality(&set.tris, &[], q);
+        let s = ray_sets::compare(&set, &accel, 0..set.rays.len());
+        println!(
+            "soup100k, {} build: t match {:.4}%, prim match {:.4}% ({} ties)",
+            q.name(),
+            100.0 * s.t_rate(),
+            100.0 * s.prim_rate(),
+            s.ties
+        );
+        group.bench_function(format!("soup100k/{}", q.name()), |b| {
+            b.iter(|| {
+                let mut sum = 0.0f64;
+                for r in &set.rays {
+                    sum += accel
+                        .intersect(r, f32::INFINITY)
+                        .map_or(0.0, |h| h.t as f64);
+                }
+                black_box(sum)
+            })
+        });
+    }
+    group.finish();
 }
 
 fn bench_threads(c: &mut Criterion, sets: &[&str], threads: usize) {
