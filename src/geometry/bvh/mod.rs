@@ -1104,8 +1104,8 @@ const COINCIDENT_MIN: usize = 8;
 /// Each box of a group of at least [`COINCIDENT_MIN`] is therefore translated by a deterministic
 /// pseudo-random offset of up to 1e-3 of the group's largest box for the PLOC build and the
 /// reinsertion, which spreads the group like a small point cloud; returns the true boxes when
-/// any box was moved (the caller puts them back with [`restore_aabbs`]). Scenes without such groups build exactly
-/// as before.
+/// any box was moved (the caller puts them back with [`restore_aabbs`]). Scenes without such
+/// groups build exactly as before.
 fn spread_coincident(aabbs: &mut [Aabb]) -> Option<Vec<Aabb>> {
     let key = |b: &Aabb| (b.min + b.max).to_array().map(|x| (x + 0.0).to_bits());
     let mut order: Vec<u32> = (0..aabbs.len() as u32).collect();
