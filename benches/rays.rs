@@ -9,7 +9,8 @@
 //!
 //! The groups `build` and `closest_hit_quality` time the two BVH build qualities on soup100k
 //! (`accel.quality` `medium` and `high`; docs/performance.md §1): the build, and 1-thread
-//! closest hits on each tree.
+//! closest hits on each tree. `build` also times the default build of the generated 1M sets on
+//! 1 and 2 threads.
 
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
@@ -46,6 +47,28 @@ fn bench_rays(c: &mut Criterion) {
         bench_threads(c, &sets, threads);
     }
     bench_quality(c);
+    bench_build_1m(c, &sets);
+}
+
+/// The default (medium) build of the generated 1M-triangle sets on 1 and 2 worker threads (the
+/// build's parallel parts; the tree is the same either way).
+fn bench_build_1m(c: &mut Criterion, sets: &[&str]) {
+    let mut build = c.benchmark_group("build");
+    build.sample_size(10);
+    build.warm_up_time(Duration::from_secs(1));
+    for &name in sets.iter().filter(|s| s.ends_with("1m")) {
+        let set = ray_sets::load(name);
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            build.bench_function(format!("{name}/medium/{threads}thread"), |b| {
+                b.iter(|| pool.install(|| black_box(Accel::build(&set.tris, &[]))))
+            });
+        }
+    }
+    build.finish();
 }
 
 /// soup100k built at each quality: the build's time, and 1-thread closest hits on the tree.

@@ -94,6 +94,7 @@ fn main() {
         100.0 * lanes as f64 / (8 * packets).max(1) as f64,
         bytes as f64 / set.tris.len() as f64
     );
+    eprintln!("fingerprint {:016x}", accel.fingerprint());
     let [sah_nodes, sah_packets] = accel.sah();
     eprintln!(
         "surface-area model, per ray through the root box: {sah_nodes:.3} node visits, \

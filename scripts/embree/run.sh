@@ -20,9 +20,10 @@
 # checks its hits against the stored reference hits.
 # stokes: target/release/examples/raybench SET N_RAYS REPS, which builds as a scene does by
 # default (`accel.quality` auto: the high build up to 250 000 primitives, medium above) and
-# prints the build time. Set STOKES_PRESET to medium or high (or another obvhs preset, see
-# examples/raybench.rs) to time that build, EMBREE_CONFIG to change the Embree device config
-# (default "threads=1"; e.g. "threads=1,isa=avx2").
+# prints the build time, on one worker thread like Embree's (STOKES_BUILD_THREADS sets how
+# many; the tree is the same on any number). Set STOKES_PRESET to medium or high (or another
+# obvhs preset, see examples/raybench.rs) to time that build, EMBREE_CONFIG to change the Embree
+# device config (default "threads=1"; e.g. "threads=1,isa=avx2").
 set -u
 cd "$(dirname "$0")/../.."
 
@@ -125,6 +126,7 @@ for ((r = 1; r <= rounds; r++)); do
     done <<<"$out"
     # stokes
     out=$(env -u LEAF -u REINS -u NOSPLIT PRESET="${STOKES_PRESET:-auto}" \
+      RAYON_NUM_THREADS="${STOKES_BUILD_THREADS:-1}" \
       "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
     printf '%s\n' "$out" >>"$log"
     m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$out")
@@ -138,7 +140,7 @@ done
 
 echo
 echo "Closest hit, 1 thread, Mrays/s (median over $rounds rounds of the median of $reps passes);"
-echo "build times in ms (median over rounds; Embree device threads=1, stokes obvhs single-threaded)"
+echo "build times in ms (median over rounds; Embree device threads=1, stokes on ${STOKES_BUILD_THREADS:-1} thread(s))"
 hdr=$(printf '%-10s %8s' "ray set" "tris")
 for q in "${quals[@]}"; do hdr+=$(printf ' %13s' "Embree $q"); done
 hdr+=$(printf ' %9s' "stokes")

@@ -14,13 +14,13 @@ use super::nodes::Encode;
 pub(super) const LEAF_MAX: usize = 8;
 
 /// The collapsed tree: its nodes (root first; the internal children of a node are consecutive
-/// nodes, its leaves consecutive packets, both in slot order), the BVH2 primitive slots of each
-/// leaf (leaf `k` is packet `k`), its depth, and its cost in the surface-area model: the node
-/// visits and the packet tests of a ray through the root's box (each box's area over the
-/// root's, summed over the nodes and over the leaves).
+/// nodes, its leaves consecutive packets, both in slot order), the BVH2 node of each leaf (leaf
+/// `k` is packet `k`; [`Plan::pieces`] gives its primitives), its depth, and its cost in the
+/// surface-area model: the node visits and the packet tests of a ray through the root's box
+/// (each box's area over the root's, summed over the nodes and over the leaves).
 pub(super) struct Collapsed<N> {
     pub nodes: Vec<N>,
-    pub leaves: Vec<Vec<u32>>,
+    pub leaves: Vec<u32>,
     pub depth: usize,
     pub sah: [f64; 2],
 }
@@ -52,7 +52,7 @@ pub(super) fn collapse<N: Encode>(plan: &Plan, max_nodes: usize) -> Option<Colla
             out.sah[leaf as usize] += aabb.half_area() as f64 / root;
             if leaf {
                 out.nodes[at].set_leaf(slot, aabb, out.leaves.len() as u32);
-                out.leaves.push(leaf_slots(bvh2, k));
+                out.leaves.push(k as u32);
             } else {
                 let child = out.nodes.len();
                 if child >= max_nodes {
@@ -81,6 +81,12 @@ pub(super) struct Plan<'a> {
     bvh2: &'a Bvh2,
     /// Per BVH2 node, its [`Choice::split`].
     at: Vec<[u8; 8]>,
+    /// The BVH2's primitives (`primitive_indices`) leaf by leaf in post-order, left first, so
+    /// that every subtree's are consecutive.
+    pieces: Vec<u32>,
+    /// Per BVH2 node of at most [`LEAF_MAX`] primitives, where its primitives start in
+    /// `pieces` and how many there are (unused for larger subtrees).
+    span: Vec<[u32; 2]>,
     /// The least cost of the whole tree given one slot (its root's `Choice::cost[0]`).
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) cost: f32,
@@ -106,11 +112,19 @@ impl<'a> Plan<'a> {
     pub(super) fn new(bvh2: &'a Bvh2) -> Plan<'a> {
         let b = &bvh2.nodes;
         let mut at = vec![[0u8; 8]; b.len()];
+        let mut span = vec![[0u32; 2]; b.len()];
+        let mut pieces = Vec::with_capacity(bvh2.primitive_indices.len());
         // the children's choices, left below right (the order is a post-order, left first)
         let mut done: Vec<Choice> = Vec::new();
-        for (n, area, prims) in post_order(bvh2) {
+        // the nodes in pre-order, right child first, read in one tight pass (the nodes are
+        // scattered in memory, and the next node's address is known early); backwards, that is
+        // a post-order, left first
+        for &(n, area, prims, first) in pre_order(bvh2).iter().rev() {
+            let n = n as usize;
             let count = if prims > 0 {
                 assert!(prims as usize <= LEAF_MAX, "BVH2 leaf over a packet");
+                let first = first as usize;
+                pieces.extend_from_slice(&bvh2.primitive_indices[first..first + prims as usize]);
                 prims
             } else {
                 let r = done.pop().expect("right child");
@@ -124,7 +138,8 @@ impl<'a> Plan<'a> {
                 }
                 count
             };
-            // a leaf: one slot, whatever the slots given
+            // a leaf: one slot, whatever the slots given; its primitives are the last `count`
+            span[n] = [(pieces.len() - count as usize) as u32, count];
             done.push(Choice {
                 cost: [PACKET_COST * area; 8],
                 split: [0; 8],
@@ -132,7 +147,13 @@ impl<'a> Plan<'a> {
             });
         }
         let cost = done.pop().expect("the root").cost[0];
-        Plan { bvh2, at, cost }
+        Plan {
+            bvh2,
+            at,
+            pieces,
+            span,
+            cost,
+        }
     }
 
     /// The choice for a subtree of more than [`LEAF_MAX`] primitives with box area `area`,
@@ -174,6 +195,13 @@ impl<'a> Plan<'a> {
         self.at[n][0] == 0
     }
 
+    /// The primitives (BVH2 `primitive_indices`) of leaf subtree `n`, left to right.
+    #[inline]
+    pub(super) fn pieces(&self, n: u32) -> &[u32] {
+        let [first, count] = self.span[n as usize];
+        &self.pieces[first as usize..(first + count) as usize]
+    }
+
     /// The slots of the 8-wide node for subtree `n` (a leaf only at the root: one slot).
     fn slots(&self, n: usize, out: &mut Vec<usize>) {
         if self.is_leaf(n) {
@@ -203,37 +231,20 @@ impl<'a> Plan<'a> {
     }
 }
 
-/// The BVH2's nodes, left child's subtree, right child's subtree, then the node, each with its
-/// box's half area and primitive count (read once: the nodes are scattered in memory).
-fn post_order(bvh2: &Bvh2) -> Vec<(usize, f32, u32)> {
+/// The BVH2's nodes in pre-order with the right child first (the node, its right child's
+/// subtree, then its left child's), each with its box's half area, primitive count and first
+/// primitive slot.
+fn pre_order(bvh2: &Bvh2) -> Vec<(u32, f32, u32, u32)> {
     let b = &bvh2.nodes;
     let mut order = Vec::with_capacity(b.len());
-    let mut stack = vec![0usize];
-    // pre-order with the right child first, reversed below
+    let mut stack = vec![0u32];
     while let Some(n) = stack.pop() {
-        let node = &b[n];
-        let (f, prims) = (node.first_index as usize, node.prim_count);
-        order.push((n, node.aabb().half_area(), prims));
+        let node = &b[n as usize];
+        let (first, prims) = (node.first_index, node.prim_count);
+        order.push((n, node.aabb().half_area(), prims, first));
         if prims == 0 {
-            stack.extend([f, f + 1]);
+            stack.extend([first, first + 1]);
         }
     }
-    order.reverse();
     order
-}
-
-/// The BVH2 primitive slots under node `n`.
-fn leaf_slots(bvh2: &Bvh2, n: usize) -> Vec<u32> {
-    let b = &bvh2.nodes;
-    let mut slots = Vec::new();
-    let mut stack = vec![n];
-    while let Some(n) = stack.pop() {
-        let (first, count) = (b[n].first_index, b[n].prim_count);
-        if count > 0 {
-            slots.extend(first..first + count);
-        } else {
-            stack.extend([first as usize + 1, first as usize]);
-        }
-    }
-    slots
 }

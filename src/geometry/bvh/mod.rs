@@ -40,6 +40,7 @@ mod collapse;
 mod nodes;
 use collapse::{Plan, collapse};
 use nodes::{Entry, FULL_NODES_MAX, Node8, QNode8, TRay, Visit, WideNode};
+use rayon::prelude::*;
 
 /// Precomputed primitive record (one per BVH primitive slot).
 ///
@@ -226,6 +227,15 @@ struct TriBlock {
     /// Original primitive id per lane (`u32::MAX` if unused); in the packet's last cache line,
     /// which the test has loaded.
     ids: [u32; 8],
+}
+
+impl std::hash::Hash for TriBlock {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        for v in [&self.a, &self.b, &self.c] {
+            v.map(|row| row.map(f32::to_bits)).hash(h);
+        }
+        self.ids.hash(h);
+    }
 }
 
 // the packet size the node layouts prefetch by
@@ -503,13 +513,11 @@ impl Accel {
         } else {
             FULL_NODES_MAX
         };
-        let packets = |leaves: &[Vec<u32>]| {
-            let leaves = leaves
-                .iter()
-                .map(|slots| slots.iter().map(|&s| bvh2.primitive_indices[s as usize]));
-            pack_collapsed(leaves, n_tris as u32, mixed, prim)
-        };
         let plan = Plan::new(bvh2);
+        let packets = |leaves: &[u32]| {
+            let pieces = |k: usize| plan.pieces(leaves[k]);
+            pack_collapsed(leaves.len(), pieces, n_tris as u32, mixed, prim)
+        };
         let collapsed = (full != Some(false))
             .then(|| collapse::<Node8>(&plan, max_full))
             .flatten();
@@ -533,6 +541,21 @@ impl Accel {
     #[doc(hidden)]
     pub fn sah(&self) -> [f64; 2] {
         self.sah
+    }
+
+    /// A digest of the tree (nodes, packets and sphere lanes, every value to the bit), to
+    /// compare builds: two builds with the same digest trace every ray alike.
+    #[doc(hidden)]
+    pub fn fingerprint(&self) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        match &self.nodes {
+            Nodes::Full(n) => n.hash(&mut h),
+            Nodes::Quantised(n) => n.hash(&mut h),
+        }
+        self.blocks.hash(&mut h);
+        self.sphere_lanes.hash(&mut h);
+        h.finish()
     }
 
     /// Sizes for profiling: (nodes, packets, lanes in use, bytes of nodes + packets + ids).
@@ -990,36 +1013,37 @@ impl Accel {
 /// The leaf packets and, in scenes with spheres, each packet's sphere lanes (a bit mask).
 type Packets = (Vec<TriBlock>, Vec<u8>);
 
-/// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the leaf's pieces (a
-/// primitive split into several pieces of one leaf takes one lane).
-fn pack_collapsed<L: Iterator<Item = u32>>(
-    leaves: impl ExactSizeIterator<Item = L>,
+/// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the pieces that `pieces`
+/// gives for the leaf (a primitive split into several pieces of one leaf takes one lane). The
+/// packets are independent, so they are filled in parallel, each the same on any thread.
+fn pack_collapsed<'a>(
+    n_leaves: usize,
+    pieces: impl Fn(usize) -> &'a [u32] + Sync,
     n_tris: u32,
     mixed: bool,
-    prim: impl Fn(u32) -> (u32, Prim),
+    prim: impl Fn(u32) -> (u32, Prim) + Sync,
 ) -> Packets {
-    let mut blocks = vec![TriBlock::UNUSED; leaves.len()];
-    let mut sphere_lanes = if mixed {
-        vec![0; blocks.len()]
-    } else {
-        Vec::new()
-    };
-    for (b, pieces) in leaves.enumerate() {
+    let pack = |b: usize| {
+        let (mut blk, mut spheres) = (TriBlock::UNUSED, 0u8);
         let mut l = 0;
-        for piece in pieces {
+        for &piece in pieces(b) {
             let (id, p) = prim(piece);
-            if blocks[b].ids[..l].contains(&id) {
+            if blk.ids[..l].contains(&id) {
                 continue;
             }
-            blocks[b].set(l, &p);
-            blocks[b].ids[l] = id;
-            if mixed && id >= n_tris {
-                sphere_lanes[b] |= 1 << l;
-            }
+            blk.set(l, &p);
+            blk.ids[l] = id;
+            spheres |= ((id >= n_tris) as u8) << l;
             l += 1;
         }
-    }
-    (blocks, sphere_lanes)
+        (blk, spheres)
+    };
+    let (mut blocks, mut sphere_lanes) = (Vec::new(), Vec::new());
+    (0..n_leaves)
+        .into_par_iter()
+        .map(pack)
+        .unzip_into_vecs(&mut blocks, &mut sphere_lanes);
+    (blocks, if mixed { sphere_lanes } else { Vec::new() })
 }
 
 /// [`Accel::flat_block`] without AVX2: the same operations in the same order, lane by lane, so
@@ -1108,6 +1132,24 @@ const COINCIDENT_MIN: usize = 8;
 /// groups build exactly as before.
 fn spread_coincident(aabbs: &mut [Aabb]) -> Option<Vec<Aabb>> {
     let key = |b: &Aabb| (b.min + b.max).to_array().map(|x| (x + 0.0).to_bits());
+    // First the keys' 64-bit hashes, sorted (in parallel, the same order on any thread count):
+    // a group of equal keys is a run of equal hashes, so without such runs, as in most meshes,
+    // there is no group, and the exact sort below is skipped.
+    let mut hashes: Vec<u64> = aabbs
+        .par_iter()
+        .map(|b| {
+            let [x, y, z] = key(b);
+            splitmix64(splitmix64((x as u64) << 32 | y as u64) ^ z as u64)
+        })
+        .collect();
+    hashes.par_sort_unstable();
+    if !hashes
+        .chunk_by(|a, b| a == b)
+        .any(|run| run.len() >= COINCIDENT_MIN)
+    {
+        return None;
+    }
+    drop(hashes);
     let mut order: Vec<u32> = (0..aabbs.len() as u32).collect();
     order.sort_unstable_by_key(|&i| key(&aabbs[i as usize]));
     let runs: Vec<&[u32]> = order
@@ -1462,10 +1504,11 @@ mod tests {
             let plan = Plan::new(&bvh2);
             let c = collapse::<Node8>(&plan, usize::MAX).expect("no node limit");
             let mut seen = vec![0u32; n];
-            for leaf in &c.leaves {
-                assert!((1..=8).contains(&leaf.len()), "leaf of {}", leaf.len());
-                for &s in leaf {
-                    seen[bvh2.primitive_indices[s as usize] as usize] += 1;
+            for &leaf in &c.leaves {
+                let pieces = plan.pieces(leaf);
+                assert!((1..=8).contains(&pieces.len()), "leaf of {}", pieces.len());
+                for &p in pieces {
+                    seen[p as usize] += 1;
                 }
             }
             assert!(seen.iter().all(|&k| k == 1), "n = {n}: {seen:?}");
@@ -1511,9 +1554,11 @@ mod tests {
             p.sort_precision,
             p.search_depth_threshold,
         );
-        let c = collapse::<Node8>(&Plan::new(&bvh2), usize::MAX).expect("no node limit");
-        assert_eq!(c.leaves.iter().map(Vec::len).sum::<usize>(), 500);
-        assert!(c.leaves.iter().all(|l| (1..=8).contains(&l.len())));
+        let plan = Plan::new(&bvh2);
+        let c = collapse::<Node8>(&plan, usize::MAX).expect("no node limit");
+        let lens: Vec<usize> = c.leaves.iter().map(|&l| plan.pieces(l).len()).collect();
+        assert_eq!(lens.iter().sum::<usize>(), 500);
+        assert!(lens.iter().all(|l| (1..=8).contains(l)));
     }
 
     #[test]
@@ -1555,6 +1600,29 @@ mod tests {
         // the other tests check the default (here `High`) builds
         let (t, s) = scene(&mut rng, 2000, 100);
         check_quality(Medium, &t, &s, 3000, 8);
+    }
+
+    /// The build's parallel parts give the same tree on any number of threads, byte for byte
+    /// (`Accel::fingerprint`), for both qualities, with spheres and with a group of coincident
+    /// triangles (whose boxes are spread); and the fingerprint tells different trees apart.
+    #[test]
+    fn builds_are_the_same_on_any_number_of_threads() {
+        let mut rng = Pcg64::seed_from_u64(31);
+        let (mut t, s) = scene(&mut rng, 20_000, 300);
+        t.extend(std::iter::repeat_n(t[0], 3 * COINCIDENT_MIN));
+        let build = |threads: usize, q: BuildQuality| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| Accel::build_quality(&t, &s, q).fingerprint())
+        };
+        for q in [BuildQuality::Medium, BuildQuality::High] {
+            let one = build(1, q);
+            assert_eq!(build(2, q), one, "{q:?}");
+            assert_eq!(build(3, q), one, "{q:?}");
+        }
+        assert_ne!(build(2, BuildQuality::Medium), build(2, BuildQuality::High));
     }
 
     #[test]

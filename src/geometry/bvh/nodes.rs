@@ -177,6 +177,13 @@ pub(super) struct Node8 {
     child: [u32; 8],
 }
 
+impl std::hash::Hash for Node8 {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        self.planes.map(|row| row.map(f32::to_bits)).hash(h);
+        self.child.hash(h);
+    }
+}
+
 impl Node8 {
     /// Slot `slot` holds `aabb`, rounded outwards by one ulp (the boxes of split triangle
     /// pieces are clipped in floating point).
@@ -332,6 +339,14 @@ pub(super) struct QNode8 {
     meta: [u8; 8],
     /// Child box planes: min x, max x, min y, max y, min z, max z, in steps from `p`.
     planes: [[u8; 8]; 6],
+}
+
+impl std::hash::Hash for QNode8 {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        self.p.map(f32::to_bits).hash(h);
+        (self.e, self.imask, self.child_base, self.packet_base).hash(h);
+        (self.meta, self.planes).hash(h);
+    }
 }
 
 impl QNode8 {
