@@ -544,7 +544,8 @@ impl Accel {
     }
 
     /// A digest of the tree (nodes, packets and sphere lanes, every value to the bit), to
-    /// compare builds: two builds with the same digest trace every ray alike.
+    /// compare builds: two builds with the same digest trace every ray alike. (The hash is
+    /// std's `DefaultHasher`, stable within one toolchain, not across Rust releases.)
     #[doc(hidden)]
     pub fn fingerprint(&self) -> u64 {
         use std::hash::{Hash, Hasher};
