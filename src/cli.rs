@@ -247,14 +247,8 @@ fn canonical_output(p: &Path) -> PathBuf {
 pub fn render(a: &RenderArgs) -> Result<(), Error> {
     render_cmd_validate(a)?;
     // the scene's BVH build runs its parallel parts on `--threads` workers too
-    let scene = match a.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::input(format!("cannot start worker threads: {e}")))?
-            .install(|| load_scene(&a.scene, a.quiet))?,
-        None => load_scene(&a.scene, a.quiet)?,
-    };
+    let scene = crate::integrator::with_threads(a.threads, || load_scene(&a.scene, a.quiet))
+        .map_err(Error::runtime)??;
     let (from, to) = a.sample_range();
     let settings = RenderSettings {
         first_sample: from,

@@ -8,7 +8,7 @@ use super::record::{GridCell, mkdir};
 use super::setup::Setup;
 use crate::error::Error;
 use crate::film::output::write_exr;
-use crate::integrator::{RenderSettings, render};
+use crate::integrator::{RenderSettings, render, with_threads};
 use crate::scene::Scene;
 use indicatif::ProgressBar;
 use std::path::Path;
@@ -126,5 +126,6 @@ fn scene_with_override(
                 s.scene_path.display()
             ))
         })?;
-    Ok(Scene::from_str(&s.scene_path, &text)?)
+    let scene = with_threads(s.cfg.threads, || Scene::from_str(&s.scene_path, &text));
+    Ok(scene.map_err(Error::runtime)??)
 }

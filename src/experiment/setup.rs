@@ -5,7 +5,7 @@
 use super::config::{BudgetMode, Config, Crop, Scanline};
 use super::record::ModeBudgets;
 use crate::error::Error;
-use crate::integrator::{IntegratorKind, IntegratorOptions};
+use crate::integrator::{IntegratorKind, IntegratorOptions, with_threads};
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -60,7 +60,9 @@ impl Setup {
                 scene_path.display()
             ))
         })?;
-        let mut scene = Scene::from_str(&scene_path, &scene_text)?;
+        // the BVH build on the config's `threads`, as the renders
+        let mut scene = with_threads(cfg.threads, || Scene::from_str(&scene_path, &scene_text))
+            .map_err(Error::runtime)??;
         let (fw, fh) = (scene.camera.width, scene.camera.height);
         let (w, h) = if quick { quick_size(fw, fh) } else { (fw, fh) };
         resize_camera(&mut scene, w, h);
@@ -69,7 +71,7 @@ impl Setup {
                 let Some(p) = cfg.variant_scene_path(config_path, i) else {
                     return Ok(None);
                 };
-                let mut vs = load_variant_scene(config_path, i, &p, (fw, fh))?;
+                let mut vs = load_variant_scene(config_path, i, &p, (fw, fh), cfg.threads)?;
                 resize_camera(&mut vs, w, h);
                 Ok(Some(vs))
             })
@@ -247,6 +249,7 @@ fn load_variant_scene(
     i: usize,
     path: &Path,
     full: (u32, u32),
+    threads: Option<usize>,
 ) -> Result<Scene, Error> {
     let field = |m: String| {
         Error::input(format!(
@@ -256,8 +259,9 @@ fn load_variant_scene(
     };
     let text = std::fs::read_to_string(path)
         .map_err(|e| field(format!("cannot read '{}': {e}", path.display())))?;
-    let scene =
-        Scene::from_str(path, &text).map_err(|e| field(format!("the scene is not valid: {e}")))?;
+    let scene = with_threads(threads, || Scene::from_str(path, &text))
+        .map_err(Error::runtime)?
+        .map_err(|e| field(format!("the scene is not valid: {e}")))?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     if (w, h) != full {
         return Err(field(format!(

@@ -9,6 +9,7 @@ use super::overrides::{self, Missing};
 use super::record::{Row, SummaryEntry, summarize};
 use super::setup::Setup;
 use crate::error::Error;
+use crate::integrator::with_threads;
 use crate::scene::{InputError, Scene};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -45,14 +46,16 @@ pub fn points(s: &Setup) -> Result<Vec<Point>, Error> {
                 format!("{e} in the scene '{}'", s.scene_path.display()),
             )
         })?;
-        let scene = Scene::from_str(&s.scene_path, &text).map_err(|e| {
-            Error::input(format!(
-                "{}: field `sweep.values[{index}]`: the scene with {} = {} is not valid: {e}",
-                s.config_path.display(),
-                sw.path,
-                compact(value)
-            ))
-        })?;
+        let scene = with_threads(s.cfg.threads, || Scene::from_str(&s.scene_path, &text))
+            .map_err(Error::runtime)?
+            .map_err(|e| {
+                Error::input(format!(
+                    "{}: field `sweep.values[{index}]`: the scene with {} = {} is not valid: {e}",
+                    s.config_path.display(),
+                    sw.path,
+                    compact(value)
+                ))
+            })?;
         let mut cfg = s.cfg.clone();
         cfg.sweep = None;
         // Only a title from here on (figures); the folder is `sweep/<index>`.

@@ -8,7 +8,7 @@ pub use bdpt::allbins;
 pub mod pt;
 pub mod render;
 
-pub use render::{RenderOutput, RenderSettings, check, render, shard_info};
+pub use render::{RenderOutput, RenderSettings, check, render, shard_info, with_threads};
 
 use crate::material::WavelengthSampling;
 use crate::medium::Tracking;

@@ -48,6 +48,22 @@ pub struct RenderOutput {
 /// Called after each pass: (film so far, stats so far, seconds so far). Return `false` to stop.
 pub type PassCallback<'a> = dyn FnMut(&Film, &Stats, f64) -> bool + Send + 'a;
 
+/// Run `f` with its parallel parts (a scene load's BVH build) on `threads` workers, or on
+/// rayon's global pool (every core) for `None`: a load keeps to the threads its render is given.
+pub fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T, String> {
+    let Some(t) = threads else {
+        return Ok(f());
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(t.max(1))
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    Ok(pool.install(f))
+}
+
 /// Render `scene` with the integrator `kind`.
 pub fn render(
     scene: &Scene,
@@ -377,4 +393,20 @@ pub fn run<I: Integrator>(
         stats,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::with_threads;
+
+    /// A scene load run through `with_threads` sees that many workers (its BVH build's parallel
+    /// parts run on them); `None` leaves it on the global pool.
+    #[test]
+    fn with_threads_gives_that_many_workers() {
+        for n in [1, 3] {
+            assert_eq!(with_threads(Some(n), rayon::current_num_threads), Ok(n));
+        }
+        let all = rayon::current_num_threads();
+        assert_eq!(with_threads(None, rayon::current_num_threads), Ok(all));
+    }
 }

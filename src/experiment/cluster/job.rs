@@ -11,6 +11,7 @@ use super::super::sweep;
 use super::super::variants::{Runs, SnapshotStat};
 use super::plan::{Job, Plan, Work, inputs_hash, mode_budgets, read_plan};
 use crate::error::Error;
+use crate::integrator::with_threads;
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -197,7 +198,9 @@ fn run_planned(run_dir: &Path, plan: &Plan, j: &Job) -> Result<(), Error> {
 /// The setup a job renders with: the plan's config (unchanged since planning), at its `--quick`
 /// size, the sweep's value applied, with the job's thread count.
 fn setup_for(plan: &Plan, j: &Job) -> Result<Setup, Error> {
-    let mut s = Setup::load(&plan.config_file, None, plan.quick)?;
+    // without the config's `threads`, the scene's BVH build keeps to Slurm's CPUs, as the render
+    let load = || Setup::load(&plan.config_file, None, plan.quick);
+    let mut s = with_threads(slurm_cpus(), load).map_err(Error::runtime)??;
     if inputs_hash(&s)? != plan.inputs_hash {
         return Err(Error::input(format!(
             "the config '{}', its scene '{}' or a variant's scene changed since the run was planned: plan a new run",
