@@ -91,6 +91,11 @@ fi
 cc -O3 -march=native -Wall scripts/embree/raybench.c -o "$ebin" "${eflags[@]}" -lm || exit 1
 cargo build --release --quiet --example raybench || exit 1
 sbin=$target/release/examples/raybench
+# The AVX2 node visits must be inlined into the traversal loops (src/geometry/bvh/nodes.rs,
+# `WideNode::visit`); called out of line they cost about a fifth more instructions a ray.
+if command -v nm > /dev/null && nm "$sbin" | grep -q 'visit_\(full\|quantised\)_avx2'; then
+  echo "warning: $sbin calls the BVH node visits out of line; its speed is not representative" >&2
+fi
 
 median() {
   printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 }

@@ -616,17 +616,19 @@ impl Accel {
         ray: &Ray,
         t_max: f32,
     ) -> Option<Hit> {
+        // Each call of a traversal loop passes its own `SITE` (`WideNode::visit`: the node visits
+        // are inlined only when each copy has a single caller).
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.intersect_impl::<N, false, AVX>(nodes, ray, t_max, &mut stack)
+                self.intersect_impl::<N, false, AVX, 0>(nodes, ray, t_max, &mut stack)
             } else {
-                self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
+                self.intersect_impl::<N, true, AVX, 1>(nodes, ray, t_max, &mut stack)
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
-            self.intersect_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
+            self.intersect_impl::<N, true, AVX, 2>(nodes, ray, t_max, &mut stack)
         }
     }
 
@@ -814,7 +816,7 @@ impl Accel {
     /// children are visited nearest first (sorted by entry distance), and popped entries farther
     /// than the current hit are skipped.
     #[inline(always)]
-    fn intersect_impl<N: WideNode, const MIXED: bool, const AVX: bool>(
+    fn intersect_impl<N: WideNode, const MIXED: bool, const AVX: bool, const SITE: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -841,7 +843,7 @@ impl Accel {
             let Visit {
                 inner: inner_hits,
                 leaves,
-            } = node.visit::<AVX>(&r, t_best, &mut tmins);
+            } = node.visit::<AVX, SITE>(&r, t_best, &mut tmins);
             // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
             // load while the leaves are tested.
             let n_inner = inner_hits.count_ones() as usize;
@@ -953,23 +955,24 @@ impl Accel {
         ray: &Ray,
         t_max: f32,
     ) -> bool {
+        // `SITE` 3-5: see `intersect_stack`.
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.occluded_impl::<N, false, AVX>(nodes, ray, t_max, &mut stack)
+                self.occluded_impl::<N, false, AVX, 3>(nodes, ray, t_max, &mut stack)
             } else {
-                self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
+                self.occluded_impl::<N, true, AVX, 4>(nodes, ray, t_max, &mut stack)
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
-            self.occluded_impl::<N, true, AVX>(nodes, ray, t_max, &mut stack)
+            self.occluded_impl::<N, true, AVX, 5>(nodes, ray, t_max, &mut stack)
         }
     }
 
     /// Any-hit traversal: no ordering, exit on the first hit.
     #[inline(always)]
-    fn occluded_impl<N: WideNode, const MIXED: bool, const AVX: bool>(
+    fn occluded_impl<N: WideNode, const MIXED: bool, const AVX: bool, const SITE: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -985,7 +988,7 @@ impl Accel {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
             node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
-            let Visit { inner, leaves } = node.visit::<AVX>(&r, t_max, &mut tmins);
+            let Visit { inner, leaves } = node.visit::<AVX, SITE>(&r, t_max, &mut tmins);
             // inner children on the stack in slot order; the last one is visited next
             let mut m = inner;
             for k in 0..inner.count_ones() as usize {

@@ -94,7 +94,19 @@ pub(super) trait WideNode {
     /// Node index of the internal child in `slot`.
     fn inner_child(&self, slot: usize) -> u32;
     /// Test `r` against the child boxes with t in [0, t_max]; entry distances to `tmin_out`.
-    fn visit<const AVX: bool>(&self, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit;
+    ///
+    /// `SITE` numbers the traversal loop that calls it (one per loop, see `Accel::intersect_stack`
+    /// and `Accel::occluded_stack`), so that each AVX2 visit below is its own copy with a single
+    /// caller. The compiler then inlines it into its loop. With one copy shared by all six loops it
+    /// was called out of line, and soup100k took 2 072 instructions a ray instead of 1 644
+    /// (docs/performance.md §1, "The node visits inlined again"). `#[inline(always)]` cannot be
+    /// combined with `#[target_feature]` in stable Rust.
+    fn visit<const AVX: bool, const SITE: u8>(
+        &self,
+        r: &TRay,
+        t_max: f32,
+        tmin_out: &mut [f32; 8],
+    ) -> Visit;
     /// Each slot's internal child index as an AVX2 vector (any value for the other slots).
     ///
     /// # Safety
@@ -246,11 +258,16 @@ impl WideNode for Node8 {
     /// The slab test per plane as (p − o) / d, the near planes' maximum against the far
     /// planes' minimum.
     #[inline(always)]
-    fn visit<const AVX: bool>(&self, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
+    fn visit<const AVX: bool, const SITE: u8>(
+        &self,
+        r: &TRay,
+        t_max: f32,
+        tmin_out: &mut [f32; 8],
+    ) -> Visit {
         #[cfg(target_arch = "x86_64")]
         if AVX {
             // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
-            return unsafe { visit_full_avx2(self, r, t_max, tmin_out) };
+            return unsafe { visit_full_avx2::<SITE>(self, r, t_max, tmin_out) };
         }
         let (o, inv) = (r.o.to_array(), r.inv_d.to_array());
         let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| &self.planes[k]);
@@ -279,11 +296,17 @@ impl WideNode for Node8 {
     }
 }
 
-/// AVX2 [`Node8::visit`]: the same operations, all 8 slots at once, no branches.
+/// AVX2 [`Node8::visit`]: the same operations, all 8 slots at once, no branches. One copy per
+/// `SITE` (`WideNode::visit`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn visit_full_avx2(node: &Node8, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
+fn visit_full_avx2<const SITE: u8>(
+    node: &Node8,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> Visit {
     use std::arch::x86_64::*;
     let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| node.planes[k].as_ptr());
     let (o, inv) = (r.o, r.inv_d);
@@ -437,11 +460,16 @@ impl WideNode for QNode8 {
 
     /// t = q · (step / d) + (p − o) / d per plane (the CWBVH slab test).
     #[inline(always)]
-    fn visit<const AVX: bool>(&self, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
+    fn visit<const AVX: bool, const SITE: u8>(
+        &self,
+        r: &TRay,
+        t_max: f32,
+        tmin_out: &mut [f32; 8],
+    ) -> Visit {
         #[cfg(target_arch = "x86_64")]
         if AVX {
             // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
-            return unsafe { visit_quantised_avx2(self, r, t_max, tmin_out) };
+            return unsafe { visit_quantised_avx2::<SITE>(self, r, t_max, tmin_out) };
         }
         let adj_dir_inv = (self.step() * r.inv_d).to_array();
         let adj_orig = ((Vec3A::from(self.p) - r.o) * r.inv_d).to_array();
@@ -495,11 +523,17 @@ const INNER_RANK: [[u8; 8]; 256] = {
     t
 };
 
-/// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot.
+/// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot. One
+/// copy per `SITE` (`WideNode::visit`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn visit_quantised_avx2(node: &QNode8, r: &TRay, t_max: f32, tmin_out: &mut [f32; 8]) -> Visit {
+fn visit_quantised_avx2<const SITE: u8>(
+    node: &QNode8,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> Visit {
     use std::arch::x86_64::*;
     let adj_dir_inv = node.step() * r.inv_d;
     let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
