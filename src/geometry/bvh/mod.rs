@@ -586,14 +586,14 @@ impl Accel {
         }
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is only set when the CPU supports AVX2, POPCNT and BMI1.
+            // SAFETY: `avx2` is only set when the CPU supports AVX2, FMA, POPCNT and BMI1.
             return unsafe { self.intersect_avx2(ray, t_max) };
         }
         self.intersect_dispatch::<false>(ray, t_max)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
     fn intersect_avx2(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if !self.flat.is_empty() {
             return self.intersect_flat(ray, t_max);
@@ -724,7 +724,7 @@ impl Accel {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
     fn intersect_flat(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());
         let mut best: Option<Hit> = None;
@@ -752,7 +752,7 @@ impl Accel {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
     fn occluded_flat(&self, ray: &Ray, t_max: f32) -> bool {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());
         self.flat
@@ -932,7 +932,7 @@ impl Accel {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
     fn occluded_avx2(&self, ray: &Ray, t_max: f32) -> bool {
         if !self.flat.is_empty() {
             return self.occluded_flat(ray, t_max);
@@ -1213,6 +1213,7 @@ fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("fma")
             && std::is_x86_feature_detected!("popcnt")
             && std::is_x86_feature_detected!("bmi1")
     }

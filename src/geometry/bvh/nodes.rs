@@ -30,6 +30,8 @@ pub(super) struct TRay {
     pub o: Vec3A,
     pub d: Vec3A,
     pub inv_d: Vec3A,
+    /// o · inv_d, for the full nodes' fused slab test (p · inv_d − o · inv_d).
+    pub o_inv: Vec3A,
     /// Plane numbers (0 min x, 1 max x, 2 min y, … 5 max z) of the near and far child planes
     /// per axis: the max plane is the near one where the direction is negative. Chosen once per
     /// ray, so a visit does not branch on the direction.
@@ -58,10 +60,12 @@ impl TRay {
         let [nx, fx] = axis(d.x < 0.0, 0);
         let [ny, fy] = axis(d.y < 0.0, 1);
         let [nz, fz] = axis(d.z < 0.0, 2);
+        let inv_d = Vec3A::new(safe(d.x), safe(d.y), safe(d.z));
         TRay {
             o: Vec3A::from(ray.o),
             d,
-            inv_d: Vec3A::new(safe(d.x), safe(d.y), safe(d.z)),
+            inv_d,
+            o_inv: Vec3A::from(ray.o) * inv_d,
             planes: [nx, fx, ny, fy, nz, fz],
         }
     }
@@ -255,8 +259,8 @@ impl WideNode for Node8 {
         self.child[slot]
     }
 
-    /// The slab test per plane as (p − o) / d, the near planes' maximum against the far
-    /// planes' minimum.
+    /// The slab test per plane as p · (1/d) − o · (1/d) (one fused multiply-add), the near
+    /// planes' maximum against the far planes' minimum.
     #[inline(always)]
     fn visit<const AVX: bool, const SITE: u8>(
         &self,
@@ -269,11 +273,12 @@ impl WideNode for Node8 {
             // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
             return unsafe { visit_full_avx2::<SITE>(self, r, t_max, tmin_out) };
         }
-        let (o, inv) = (r.o.to_array(), r.inv_d.to_array());
+        let (o_inv, inv) = (r.o_inv.to_array(), r.inv_d.to_array());
         let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| &self.planes[k]);
         let (mut inner, mut leaves) = (0, 0);
         for i in 0..8 {
-            let t = |p: &[f32; 8], k: usize| (p[i] - o[k]) * inv[k];
+            // p · (1/d) − o · (1/d), fused, as the AVX2 visit does (a library call without FMA)
+            let t = |p: &[f32; 8], k: usize| p[i].mul_add(inv[k], -o_inv[k]);
             let tmin = max_ps(max_ps(t(nx, 0), t(ny, 1)), max_ps(t(nz, 2), 0.0));
             let tmax = min_ps(min_ps(t(fx, 0), t(fy, 1)), min_ps(t(fz, 2), t_max));
             tmin_out[i] = tmin;
@@ -297,9 +302,11 @@ impl WideNode for Node8 {
 }
 
 /// AVX2 [`Node8::visit`]: the same operations, all 8 slots at once, no branches. One copy per
-/// `SITE` (`WideNode::visit`).
+/// `SITE` (`WideNode::visit`). Each plane's distance is one fused multiply-subtract,
+/// p · (1/d) − o · (1/d): 2 % fewer instructions a ray on soup100k than (p − o) · (1/d), and
+/// 1.02–1.03× the speed (docs/performance.md §1).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline]
 fn visit_full_avx2<const SITE: u8>(
     node: &Node8,
@@ -309,15 +316,12 @@ fn visit_full_avx2<const SITE: u8>(
 ) -> Visit {
     use std::arch::x86_64::*;
     let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| node.planes[k].as_ptr());
-    let (o, inv) = (r.o, r.inv_d);
+    let (o, inv) = (r.o_inv, r.inv_d);
     // SAFETY: AVX2 is enabled for this function; every load reads one `[f32; 8]` or `[u32; 8]`
     // field of the node.
     unsafe {
         let t = |p: *const f32, o: f32, inv: f32| {
-            _mm256_mul_ps(
-                _mm256_sub_ps(_mm256_loadu_ps(p), _mm256_set1_ps(o)),
-                _mm256_set1_ps(inv),
-            )
+            _mm256_fmsub_ps(_mm256_loadu_ps(p), _mm256_set1_ps(inv), _mm256_set1_ps(o))
         };
         let tmin = _mm256_max_ps(
             _mm256_max_ps(t(nx, o.x, inv.x), t(ny, o.y, inv.y)),
