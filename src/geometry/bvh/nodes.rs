@@ -480,7 +480,7 @@ impl WideNode for QNode8 {
         let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| &self.planes[k]);
         let (mut inner, mut leaves) = (0, 0);
         for i in 0..8 {
-            let t = |q: &[u8; 8], k: usize| q[i] as f32 * adj_dir_inv[k] + adj_orig[k];
+            let t = |q: &[u8; 8], k: usize| (q[i] as f32).mul_add(adj_dir_inv[k], adj_orig[k]);
             let tmin = max_ps(max_ps(t(nx, 0), t(ny, 1)), max_ps(t(nz, 2), 0.0));
             let tmax = min_ps(min_ps(t(fx, 0), t(fy, 1)), min_ps(t(fz, 2), t_max));
             tmin_out[i] = tmin;
@@ -530,7 +530,7 @@ const INNER_RANK: [[u8; 8]; 256] = {
 /// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot. One
 /// copy per `SITE` (`WideNode::visit`).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline]
 fn visit_quantised_avx2<const SITE: u8>(
     node: &QNode8,
@@ -548,7 +548,7 @@ fn visit_quantised_avx2<const SITE: u8>(
             _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p as *const __m128i)))
         };
         let t = |p: *const u8, d: f32, o: f32| {
-            _mm256_add_ps(_mm256_mul_ps(q(p), _mm256_set1_ps(d)), _mm256_set1_ps(o))
+            _mm256_fmadd_ps(q(p), _mm256_set1_ps(d), _mm256_set1_ps(o))
         };
         let tmin = _mm256_max_ps(
             _mm256_max_ps(
