@@ -724,7 +724,7 @@ impl Accel {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
     fn intersect_flat(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());
         let mut best: Option<Hit> = None;
@@ -752,7 +752,7 @@ impl Accel {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
+    #[target_feature(enable = "avx2,popcnt,bmi1")]
     fn occluded_flat(&self, ray: &Ray, t_max: f32) -> bool {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());
         self.flat
