@@ -43,7 +43,10 @@ impl Transmittance {
 }
 
 /// Transmittance from `a` to `b`; the shadow ray starts at `a` and is counted in `rays`.
-#[inline]
+///
+/// Always inlined: called, its two endpoints went through memory and were loaded back in wider
+/// pieces than they were stored, which stalls (pt-hero on cornell-box 1.09× faster inlined).
+#[inline(always)]
 pub fn transmittance(scene: &Scene, a: Endpoint, b: Endpoint, rays: &mut u64) -> Transmittance {
     *rays += 1;
     let (ray, tmax) = spawn_ray_to(a.p, a.n, b.p, b.n);
