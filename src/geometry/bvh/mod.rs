@@ -588,10 +588,10 @@ impl Accel {
         if self.avx2 {
             // SAFETY: `avx2` is only set when the CPU supports AVX2, FMA, POPCNT and BMI1.
             return unsafe {
+                let (o, d) = (ray.o, ray.d);
                 if self.flat.is_empty() {
-                    self.intersect_avx2(ray, t_max)
+                    self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
                 } else {
-                    let (o, d) = (ray.o, ray.d);
                     self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
                 }
             };
@@ -608,8 +608,20 @@ impl Accel {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
-    fn intersect_avx2(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        self.intersect_dispatch::<true>(ray, t_max)
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_avx2(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        // the ray in registers, as for `intersect_flat`
+        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
+        self.intersect_dispatch::<true>(&ray, t_max)
     }
 
     #[inline(always)]
@@ -963,10 +975,10 @@ impl Accel {
         if self.avx2 {
             // SAFETY: see `intersect`.
             return unsafe {
+                let (o, d) = (ray.o, ray.d);
                 if self.flat.is_empty() {
-                    self.occluded_avx2(ray, t_max)
+                    self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
                 } else {
-                    let (o, d) = (ray.o, ray.d);
                     self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
                 }
             };
@@ -982,8 +994,20 @@ impl Accel {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
-    fn occluded_avx2(&self, ray: &Ray, t_max: f32) -> bool {
-        self.occluded_dispatch::<true>(ray, t_max)
+    #[allow(clippy::too_many_arguments)]
+    fn occluded_avx2(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        t_max: f32,
+    ) -> bool {
+        // the ray in registers, as for `intersect_flat`
+        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
+        self.occluded_dispatch::<true>(&ray, t_max)
     }
 
     #[inline(always)]
