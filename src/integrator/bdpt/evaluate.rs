@@ -286,7 +286,7 @@ pub(super) fn xyz_weight(
 /// on the surface side; light tracing's from x1 towards the pinhole).
 ///
 /// Out of line: one copy of the inlined shadow ray instead of two in every connection, whose
-/// registers are already short (bdpt-forward on cornell-box 1.03× faster than inlined).
+/// registers are already short (bdpt-forward on cornell-box 1.04× faster than inlined twice).
 #[inline(never)]
 pub(super) fn shadow(
     scene: &Scene,
