@@ -370,13 +370,6 @@ impl Bdpt {
         } else {
             None
         };
-        if t >= 1 {
-            let tr = shadow(scene, ends.a, ends.b, s, &mut stats.rays);
-            if tr.is_zero() {
-                return None;
-            }
-            f *= tr.at(l) as f64;
-        }
         // p_Λ(ŝ) of a path that does not shift (eqs. 6.4, 6.5, 6.9–6.13): the camera's for the
         // forward reset's camera strategies, the emitter's otherwise
         let emit = &mut caches.plain.emit;
@@ -393,8 +386,17 @@ impl Bdpt {
         };
         let changed = changed_pdfs(scene, &ends, conn);
         let (area, w) = area_and_weight(&ends, changed, wl, self.mis);
-        // the strategy's own pdf (eq. 6.14); zero, NaN or infinite is a lost contribution
+        // the strategy's own pdf (eq. 6.14)
         let p = area * if s == 1 { wl.0 } else { wl.1 };
+        // the shadow ray last, so that the weight's divisions overlap its traversal
+        if t >= 1 {
+            let tr = shadow(scene, ends.a, ends.b, s, &mut stats.rays);
+            if tr.is_zero() {
+                return None;
+            }
+            f *= tr.at(l) as f64;
+        }
+        // zero, NaN or infinite p is a lost contribution
         if !(p > 0.0 && p.is_finite()) {
             stats.dropped_strategy_pdfs += (f != 0.0) as u64;
             return None;
