@@ -10,6 +10,10 @@ use std::time::Duration;
 use stokes::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
 use stokes::scene::Scene;
 
+// The allocator of the `stokes` binary (src/main.rs), so that these figures are its figures.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 const SPP: u32 = 4;
 
 fn bench_pt(c: &mut Criterion) {

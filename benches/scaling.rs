@@ -10,6 +10,10 @@ use std::time::Duration;
 use stokes::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
 use stokes::scene::Scene;
 
+// The allocator of the `stokes` binary (src/main.rs), so that these figures are its figures.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn bench_scaling(c: &mut Criterion) {
     let scene = Scene::load(Path::new("scenes/cornell-box.json")).unwrap();
     let opts = IntegratorOptions {
