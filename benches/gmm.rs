@@ -15,6 +15,10 @@ use stokes::material::{
 };
 use stokes::spectrum::DEFAULT_DOMAIN;
 
+// The allocator of the `stokes` binary (src/main.rs), so that these figures are its figures.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 const N: usize = 1024;
 
 fn bench_gmm(c: &mut Criterion) {

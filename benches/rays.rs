@@ -21,6 +21,10 @@ use std::hint::black_box;
 use std::time::Duration;
 use stokes::geometry::{Accel, BuildQuality};
 
+// The allocator of the `stokes` binary (src/main.rs), so that these figures are its figures.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 const CHUNK: usize = 1024;
 
 fn bench_rays(c: &mut Criterion) {

@@ -10,6 +10,10 @@ mod ray_sets;
 
 use stokes::geometry::{Accel, BuildQuality, Ray};
 
+// The allocator of the `stokes` binary (src/main.rs), so that the build times are its.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 #[inline(never)]
 fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
     let mut s = 0.0f64;

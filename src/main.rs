@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use stokes::cli;
 
-/// The memory allocator: mimalloc. The system's (glibc) grows each worker thread's heap by
-/// thousands of `mprotect` calls, each of which holds up the other threads' page faults, so
-/// 2-thread renders scaled worse and varied more (docs/performance.md, §4).
+/// The memory allocator: mimalloc. The system's (glibc) grows each worker thread's heap with
+/// thousands of `mprotect` calls, and with it 2-thread renders scaled worse and varied more from
+/// run to run (docs/performance.md, §4).
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
