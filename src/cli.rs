@@ -6,6 +6,8 @@ use crate::film::{write_exr, write_png};
 use crate::integrator::{
     IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
 };
+use crate::io::output::{canonical_output, check_output};
+use crate::io::text::show_path;
 use crate::material::WavelengthSampling;
 use crate::medium::Tracking;
 use crate::scene::Scene;
@@ -112,19 +114,36 @@ impl RenderArgs {
 /// Load a scene and print its warnings.
 pub fn load_scene(path: &Path, quiet: bool) -> Result<Scene, Error> {
     let scene = Scene::load(path)?;
+    print_warnings(path, &scene, quiet);
+    Ok(scene)
+}
+
+/// Print a scene's warnings (their text comes from the scene: control bytes are escaped).
+fn print_warnings(path: &Path, scene: &Scene, quiet: bool) {
     if !quiet {
         for w in &scene.warnings {
-            eprintln!("warning: {}: {w}", path.display());
+            eprintln!(
+                "warning: {}: {}",
+                show_path(path),
+                crate::io::text::escape_control(w, false)
+            );
         }
     }
-    Ok(scene)
 }
 
 use crate::experiment::config::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 /// Largest `--exposure` magnitude, stops.
 pub const MAX_EXPOSURE: f32 = 64.0;
 
-pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), Error> {
+/// Where `render` writes: the checked output paths (a link resolved to its target).
+#[derive(Clone, Debug)]
+pub struct RenderOutputs {
+    pub exr: PathBuf,
+    pub png: Option<PathBuf>,
+    pub stats: Option<PathBuf>,
+}
+
+pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
     if a.spp == 0 || a.spp > MAX_SPP {
         return Err(Error::input(format!(
             "--spp must be 1–{MAX_SPP}, got {}",
@@ -167,9 +186,11 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<(), Error> {
 
 /// The outputs of `render`, checked before the scene is loaded: `-o` ends in `.exr` and
 /// `--png` in `.png` (the format follows the option, so the name must say it), no two outputs
-/// are the same file (after resolving `.`, `..` and links of their folders), and each one's
-/// folder exists and takes a new file. `--strategy-images` is a folder, created if missing.
-fn check_outputs(a: &RenderArgs) -> Result<(), Error> {
+/// are the same file (after resolving `.`, `..` and links), and each one is a regular file or
+/// new, with a legal name in a folder that exists and takes a new file
+/// ([`crate::io::output::check_output`]). `--strategy-images` is a folder, created if missing,
+/// in which no strategy image's name is taken by anything but a regular file.
+fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
     if !crate::film::output::has_extension(&a.output, "exr") {
         return Err(Error::input(format!(
             "-o/--output '{}': the image is written as OpenEXR, so its name must end in .exr (use --png for a PNG preview)",
@@ -188,23 +209,32 @@ fn check_outputs(a: &RenderArgs) -> Result<(), Error> {
     outs.extend(a.png.as_deref().map(|p| ("--png", p)));
     outs.extend(a.stats.as_deref().map(|p| ("--stats", p)));
     let mut seen: Vec<(&str, PathBuf)> = Vec::new();
+    let mut resolved = Vec::new();
     for (opt, p) in outs {
-        crate::film::output::probe_writable(p)
-            .map_err(|e| Error::input(format!("{opt} '{}': {e}", p.display())))?;
-        let c = canonical_output(p);
+        let target =
+            check_output(p).map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(p))))?;
+        let c = canonical_output(&target);
         if let Some((other, _)) = seen.iter().find(|(_, q)| *q == c) {
             return Err(Error::input(format!(
                 "{opt} '{}' is the same file as {other}: give each output its own path",
-                p.display()
+                show_path(p)
             )));
         }
         seen.push((opt, c));
+        resolved.push(target);
     }
+    let mut resolved = resolved.into_iter();
+    let outputs = RenderOutputs {
+        exr: resolved.next().expect("-o is always given"),
+        png: a.png.as_ref().and_then(|_| resolved.next()),
+        stats: a.stats.as_ref().and_then(|_| resolved.next()),
+    };
     if let Some(dir) = &a.strategy_images {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create the folder: {e}"))
-            .and_then(|()| crate::film::output::probe_writable(&dir.join("probe.exr")))
-            .map_err(|e| Error::input(format!("--strategy-images '{}': {e}", dir.display())))?;
+            .and_then(|()| crate::io::output::check_folder(dir))
+            .and_then(|()| strategy_names_free(dir))
+            .map_err(|e| Error::input(format!("--strategy-images '{}': {e}", show_path(dir))))?;
         let d = canonical_output(&dir.join("x"));
         if let Some((opt, _)) = seen
             .iter()
@@ -214,6 +244,18 @@ fn check_outputs(a: &RenderArgs) -> Result<(), Error> {
                 "--strategy-images '{}': {opt} has the name of a strategy image (s<i>_t<j>.exr) in this folder and would be replaced",
                 dir.display()
             )));
+        }
+    }
+    Ok(outputs)
+}
+
+/// An error when an entry of `dir` with a strategy image's name is not a regular file (a
+/// device, FIFO, folder or link that the image would replace).
+fn strategy_names_free(dir: &Path) -> Result<(), String> {
+    let rd = std::fs::read_dir(dir).map_err(|e| format!("cannot list the folder: {e}"))?;
+    for e in rd.flatten() {
+        if is_strategy_name(&e.path()) {
+            crate::io::output::refuse_non_regular(&e.path())?;
         }
     }
     Ok(())
@@ -231,24 +273,18 @@ fn is_strategy_name(p: &Path) -> bool {
         .is_some_and(|(a, b)| digits(a) && digits(b))
 }
 
-/// An output path with its (existing) folder made canonical, so `./P` and `P` compare equal.
-fn canonical_output(p: &Path) -> PathBuf {
-    let dir = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
-    match p.file_name() {
-        Some(n) => dir.join(n),
-        None => dir,
-    }
-}
-
 pub fn render(a: &RenderArgs) -> Result<(), Error> {
-    render_cmd_validate(a)?;
+    let outputs = render_cmd_validate(a)?;
+    // The scene's text is read once: what renders is what the EXR's scene hash describes.
+    let text = crate::io::input::read_text(&a.scene, crate::io::input::SCENE)
+        .map_err(|e| Error::input(format!("cannot read the scene: {e}")))?;
     // the scene's BVH build runs its parallel parts on `--threads` workers too
-    let scene = crate::integrator::with_threads(a.threads, || load_scene(&a.scene, a.quiet))
-        .map_err(Error::runtime)??;
+    let scene = crate::integrator::with_threads(a.threads, || {
+        Scene::from_str(&a.scene, &text)
+            .map_err(Error::from)
+            .inspect(|s| print_warnings(&a.scene, s, a.quiet))
+    })
+    .map_err(Error::runtime)??;
     let (from, to) = a.sample_range();
     let settings = RenderSettings {
         first_sample: from,
@@ -263,8 +299,6 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         .map_err(Error::input)?;
     let (w, h) = (out.film.width, out.film.height);
     let rgb = out.film.rgb();
-    let text = std::fs::read_to_string(&a.scene)
-        .map_err(|e| Error::input(format!("cannot read scene '{}': {e}", a.scene.display())))?;
     let info = crate::integrator::shard_info(
         &a.scene,
         &text,
@@ -273,9 +307,9 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         a.seed,
         (from, from + out.film.spp),
     );
-    crate::film::shard::write_film(&a.output, &out.film, &info, a.samples.is_some())
+    crate::film::shard::write_film(&outputs.exr, &out.film, &info, a.samples.is_some())
         .map_err(Error::runtime)?;
-    if let Some(p) = &a.png {
+    if let Some(p) = &outputs.png {
         write_png(p, w, h, &rgb, a.exposure).map_err(Error::runtime)?;
     }
     if let Some(dir) = &a.strategy_images {
@@ -284,7 +318,7 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
                 .map_err(Error::runtime)?;
         }
     }
-    if let Some(p) = &a.stats {
+    if let Some(p) = &outputs.stats {
         let json = stats_json(a.integrator, &opts, &out);
         crate::film::output::write_atomic(p, |tmp| {
             std::fs::write(tmp, serde_json::to_string_pretty(&json).unwrap())
@@ -319,7 +353,7 @@ pub struct MergeArgs {
 /// `stokes merge`: add the exact sums of shards of one render (same scene, seed, integrator,
 /// options and size; ranges neither overlapping nor leaving gaps) into one EXR.
 pub fn merge(a: &MergeArgs) -> Result<(), Error> {
-    use crate::film::output::{has_extension, probe_writable};
+    use crate::film::output::has_extension;
     if !has_extension(&a.output, "exr") {
         return Err(Error::input(format!(
             "-o/--output '{}': the merged image is written as OpenEXR, so its name must end in .exr",
@@ -334,17 +368,28 @@ pub fn merge(a: &MergeArgs) -> Result<(), Error> {
             p.display()
         )));
     }
-    let out = canonical_output(&a.output);
-    for s in &a.shards {
-        if canonical_output(s) == out {
+    let mut outs = vec![("-o/--output", check_output(&a.output), &a.output)];
+    if let Some(p) = &a.png {
+        outs.push(("--png", check_output(p), p));
+    }
+    let mut targets: Vec<PathBuf> = Vec::new();
+    for (opt, checked, given) in outs {
+        let t = checked.map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(given))))?;
+        let c = canonical_output(&t);
+        if a.shards.iter().any(|s| canonical_output(s) == c) {
             return Err(Error::input(format!(
-                "-o/--output '{}' is also an input shard: it would be replaced; give the merge its own path",
-                a.output.display()
+                "{opt} '{}' is also an input shard: it would be replaced; give the merge its own path",
+                show_path(given)
             )));
         }
+        if targets.iter().any(|q| canonical_output(q) == c) {
+            return Err(Error::input(format!(
+                "{opt} '{}' is the same file as -o/--output: give each output its own path",
+                show_path(given)
+            )));
+        }
+        targets.push(t);
     }
-    probe_writable(&a.output)
-        .map_err(|e| Error::input(format!("-o/--output '{}': {e}", a.output.display())))?;
     let shards = a
         .shards
         .iter()
@@ -352,8 +397,8 @@ pub fn merge(a: &MergeArgs) -> Result<(), Error> {
         .collect::<Result<Vec<_>, _>>()?;
     let n = shards.len();
     let merged = crate::film::shard::merge(shards).map_err(Error::input)?;
-    merged.write(&a.output).map_err(Error::runtime)?;
-    if let Some(p) = &a.png {
+    merged.write(&targets[0]).map_err(Error::runtime)?;
+    if let Some(p) = targets.get(1) {
         let f = merged.film();
         write_png(p, f.width, f.height, &f.rgb(), 0.0).map_err(Error::runtime)?;
     }
@@ -362,10 +407,10 @@ pub fn merge(a: &MergeArgs) -> Result<(), Error> {
         merged.info.from,
         merged.info.to,
         merged.info.to - merged.info.from,
-        merged.info.scene,
-        merged.info.integrator,
+        crate::io::text::escape_control(&merged.info.scene, false),
+        crate::io::text::escape_control(&merged.info.integrator, false),
         merged.info.seed,
-        a.output.display()
+        show_path(&a.output)
     );
     Ok(())
 }
@@ -397,7 +442,10 @@ pub fn stats_json(
 
 pub fn inspect(path: &Path) -> Result<(), Error> {
     let s = load_scene(path, false)?;
-    println!("scene: {}", path.display());
+    // Names come from the scene file: their control bytes are escaped, never sent to the
+    // terminal.
+    let esc = |n: &str| crate::io::text::escape_control(n, false);
+    println!("scene: {}", show_path(path));
     println!(
         "domain: [{}, {}] nm, camera range [{}, {}] nm",
         s.domain.min, s.domain.max, s.observer.range.min, s.observer.range.max
@@ -448,7 +496,8 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
             ),
         };
         println!(
-            "material {n}: {kind}, {}",
+            "material {}: {kind}, {}",
+            esc(n),
             if m.is_fluorescent() {
                 "fluorescent"
             } else {
@@ -474,18 +523,18 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         } else {
             "non-fluorescent"
         };
-        println!("medium {n}: {density}, {fl}, phase g = {}", m.g);
+        println!("medium {}: {density}, {fl}, phase g = {}", esc(n), m.g);
     }
     if s.camera_medium != crate::scene::NONE {
         println!(
             "camera in medium {}",
-            s.medium_names[s.camera_medium as usize]
+            esc(&s.medium_names[s.camera_medium as usize])
         );
     }
     for l in &s.lights {
         println!(
             "light {}: area {:.4}, power {:.4}{}",
-            l.name,
+            esc(&l.name),
             l.area,
             l.power,
             if l.two_sided { ", two-sided" } else { "" }
@@ -636,7 +685,8 @@ fn slurm_submit(
             eprintln!("warning: {}", e.message);
         }
         for p in [&scripts.array, &scripts.collect] {
-            let text = std::fs::read_to_string(p).unwrap_or_default();
+            let text =
+                crate::io::input::read_text(p, crate::io::input::RUN_RECORD).unwrap_or_default();
             println!("# {}\n{text}", p.display());
         }
         eprintln!(
@@ -676,12 +726,14 @@ pub fn job(a: &JobArgs) -> Result<(), Error> {
     cluster::run_job(&a.run_dir, cluster::job_index(a.index)?)
 }
 
-pub fn figures(dir: &Path) -> Result<(), Error> {
+/// `stokes figures`: regenerate the figures of a stored run (only the plots with `plots_only`).
+pub fn figures(dir: &Path, plots_only: bool) -> Result<(), Error> {
     // An interrupted run has no run.json yet: look for its marker first.
     crate::experiment::record::check_complete(dir)?;
     let run = crate::experiment::figures::resolve_run_dir(dir)?;
     crate::experiment::record::check_complete(&run)?;
-    let files = crate::experiment::figures::make_all(&run)?;
+    crate::io::tree::check_run_folder(&run).map_err(Error::input)?;
+    let files = crate::experiment::figures::make(&run, !plots_only)?;
     for f in files {
         println!("{}", f.display());
     }
@@ -738,8 +790,8 @@ pub struct GmmDenseArgs {
 }
 
 /// An output file of a `gmm` command, checked before any work as `render` checks its own: the
-/// name ends in `.ext` (`why` says why), the folder exists and takes a new file, and it is not
-/// the input file. Returns its canonical path.
+/// name ends in `.ext` (`why` says why), it is a regular file or new, with a legal name in a
+/// folder that takes a new file, and it is not the input file. Returns the path to write.
 fn check_output_file(
     opt: &str,
     p: &Path,
@@ -748,33 +800,33 @@ fn check_output_file(
     input: &Path,
 ) -> Result<PathBuf, Error> {
     if !crate::film::output::has_extension(p, ext) {
-        return Err(Error::input(format!("{opt} '{}': {why}", p.display())));
+        return Err(Error::input(format!("{opt} '{}': {why}", show_path(p))));
     }
-    crate::film::output::probe_writable(p)
-        .map_err(|e| Error::input(format!("{opt} '{}': {e}", p.display())))?;
-    let c = canonical_output(p);
-    if c == canonical_output(input) {
+    let target =
+        check_output(p).map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(p))))?;
+    let input = std::fs::canonicalize(input).unwrap_or_else(|_| canonical_output(input));
+    if canonical_output(&target) == input {
         return Err(Error::input(format!(
             "{opt} '{}' is the input file '{}': give the output its own path",
-            p.display(),
-            input.display()
+            show_path(p),
+            show_path(&input)
         )));
     }
-    Ok(c)
+    Ok(target)
 }
 
 /// Write the dense matrix a model evaluates to, as a BFC file.
 pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
     use crate::material::mixture::GmmFile;
-    check_output_file(
+    let out = check_output_file(
         "-o/--output",
         &a.output,
         "bfc",
         "the matrix is written as a BFC file, so its name must end in .bfc (or .BFC)",
         &a.model,
     )?;
-    let text = std::fs::read_to_string(&a.model)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", a.model.display())))?;
+    let text =
+        crate::io::input::read_text(&a.model, crate::io::input::GMM_MODEL).map_err(Error::input)?;
     let f = GmmFile::parse(&text)
         .map_err(|m| Error::input(format!("malformed GMM file '{}': {m}", a.model.display())))?;
     let m = f.to_matrix_at(a.step).map_err(|m| {
@@ -787,10 +839,7 @@ pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
         "dense {} nm matrix of the GMM fit of {}",
         a.step, f.source.file
     );
-    crate::film::output::write_atomic(&a.output, |tmp| {
-        std::fs::write(tmp, m.to_bfc(&title)).map_err(|e| e.to_string())
-    })
-    .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", a.output.display())))?;
+    crate::io::output::write_bytes(&out, m.to_bfc(&title).as_bytes()).map_err(Error::runtime)?;
     println!(
         "{}: {}×{} cells of {} nm",
         a.output.display(),
@@ -813,7 +862,7 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
         )));
     }
     let jobs = crate::gmm::fit::targets(&a.input, &a.output)?;
-    check_fit_outputs(a, &jobs)?;
+    let jobs = check_fit_outputs(a, jobs)?;
     let t = std::time::Instant::now();
     let fitted = crate::gmm::fit::fit(&jobs, &opt)?;
     let secs = t.elapsed().as_secs_f64();
@@ -847,40 +896,51 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
 /// The outputs of `gmm fit`, checked before anything is fitted: a folder of inputs is fitted
 /// into the folder `-o` (created if missing, like `render --strategy-images`), which must take
 /// new files; one input into a `.json` file in an existing folder (or into an existing folder).
-fn check_fit_outputs(a: &GmmFitArgs, jobs: &[(PathBuf, PathBuf)]) -> Result<(), Error> {
+/// Every model file is a regular file or new ([`crate::io::output::check_output`]). Returns the
+/// jobs with the paths to write.
+fn check_fit_outputs(
+    a: &GmmFitArgs,
+    jobs: Vec<(PathBuf, PathBuf)>,
+) -> Result<Vec<(PathBuf, PathBuf)>, Error> {
     let opt = "-o/--output";
     if a.input.is_dir() || a.output.is_dir() {
         if a.output.exists() && !a.output.is_dir() {
             return Err(Error::input(format!(
                 "{opt} '{}': a folder of BFC files is fitted into a folder, but this is a file",
-                a.output.display()
+                show_path(&a.output)
             )));
         }
         std::fs::create_dir_all(&a.output)
             .map_err(|e| format!("cannot create the folder: {e}"))
-            .and_then(|()| crate::film::output::probe_writable(&a.output.join("probe.json")))
-            .map_err(|e| Error::input(format!("{opt} '{}': {e}", a.output.display())))?;
-        for (input, out) in jobs {
-            if out.is_dir() {
-                return Err(Error::input(format!(
-                    "{opt} '{}': the model of '{}' would replace a folder",
-                    out.display(),
-                    input.display()
-                )));
-            }
-        }
-        return Ok(());
+            .and_then(|()| crate::io::output::check_folder(&a.output))
+            .map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(&a.output))))?;
+        return jobs
+            .into_iter()
+            .map(|(input, out)| {
+                let target = crate::io::output::refuse_non_regular(&out)
+                    .map(|()| out.clone())
+                    .map_err(|e| {
+                        Error::input(format!(
+                            "{opt}: the model of '{}' cannot be written: {e}",
+                            show_path(&input)
+                        ))
+                    })?;
+                Ok((input, target))
+            })
+            .collect();
     }
-    for (input, out) in jobs {
-        check_output_file(
-            opt,
-            out,
-            "json",
-            "the model is written as JSON, so its name must end in .json (or give a folder)",
-            input,
-        )?;
-    }
-    Ok(())
+    jobs.into_iter()
+        .map(|(input, out)| {
+            let target = check_output_file(
+                opt,
+                &out,
+                "json",
+                "the model is written as JSON, so its name must end in .json (or give a folder)",
+                &input,
+            )?;
+            Ok((input, target))
+        })
+        .collect()
 }
 
 #[derive(Args, Debug, Clone)]
@@ -894,9 +954,10 @@ pub struct GmmEvalArgs {
     pub method: crate::material::mixture::FitMethod,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Folder of illuminant tables ("λ, value" CSV files).
-    #[arg(long, default_value = crate::gmm::evaluate::DEFAULT_ILLUMINANTS)]
-    pub illuminants: PathBuf,
+    /// A folder of illuminant tables ("λ, value" CSV files) to use instead of the 59 CIE
+    /// illuminants built into stokes.
+    #[arg(long)]
+    pub illuminants: Option<PathBuf>,
     /// Output folder: delta-e00.csv, summary.json, box plots.
     #[arg(short, long, default_value = crate::gmm::evaluate::DEFAULT_OUT)]
     pub output: PathBuf,
@@ -910,7 +971,7 @@ pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
         a.method,
         a.seed,
         &a.output,
-        &a.illuminants,
+        a.illuminants.as_deref(),
     )?;
     println!(
         "{} matrices, {} illuminants, {} monochromatic lines, {:?} fits, {:.1} s",

@@ -14,6 +14,7 @@ pub mod film;
 pub mod geometry;
 pub mod gmm;
 pub mod integrator;
+pub mod io;
 pub mod material;
 pub mod medium;
 pub mod scene;

@@ -37,6 +37,10 @@ enum Command {
     Figures {
         /// Run folder (results/<name>/runs/<timestamp>) or experiment folder (results/<name>).
         results_dir: PathBuf,
+        /// Only the plots that metrics.csv gives (convergence, sweep, the SNR table), for a run
+        /// whose images were not kept; without it a missing image is an error.
+        #[arg(long)]
+        plots_only: bool,
     },
     /// Write report.html into a stored run folder: one self-contained page with an HDR image
     /// viewer (exposure, relative error, zoom), the metrics tables, the figures and the config.
@@ -94,7 +98,10 @@ fn main() -> ExitCode {
         Command::Merge(a) => cli::merge(&a),
         Command::Job(a) => cli::job(&a),
         Command::Experiment(a) => cli::experiment(&a),
-        Command::Figures { results_dir } => cli::figures(&results_dir),
+        Command::Figures {
+            results_dir,
+            plots_only,
+        } => cli::figures(&results_dir, plots_only),
         Command::Report { run_dir } => cli::report(&run_dir),
         Command::Gmm { command } => match command {
             GmmCommand::Fit(a) => cli::gmm_fit(&a),
@@ -105,7 +112,11 @@ fn main() -> ExitCode {
     match r {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", e.message);
+            // Messages quote names and values from files: their control bytes are escaped.
+            eprintln!(
+                "error: {}",
+                stokes::io::text::escape_control(&e.message, true)
+            );
             ExitCode::from(e.exit_code())
         }
     }

@@ -281,6 +281,15 @@ fn figures(dir: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// `stokes figures --plots-only DIR`: a hand-made run has no images.
+fn plots(dir: &Path) -> std::process::Output {
+    Command::new(bin())
+        .args(["figures", "--plots-only"])
+        .arg(dir)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn every_budget_labels_a_log_axis_tick() {
     for (mode, budgets, svg) in [
@@ -298,7 +307,7 @@ fn every_budget_labels_a_log_axis_tick() {
         ("spp", vec![3.0, 7.0, 13.0, 2000.0], "snr-vs-spp.svg"),
     ] {
         let d = hand_run("ticks", mode, &budgets, serde_json::json!({}));
-        let o = figures(&d);
+        let o = plots(&d);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let texts = svg_texts(&d.join("figures").join(svg));
         for b in &budgets {
@@ -425,13 +434,15 @@ fn unknown_difference_variant_is_an_input_error_naming_the_field() {
         &[1.0],
         serde_json::json!({ "difference": { "a": "zzz" } }),
     );
-    stokes::film::write_exr(
-        &d.join("images/a__time0__r0.exr"),
-        16,
-        16,
-        &halves(16, 16, 1.0, 1.0),
-    )
-    .unwrap();
+    for v in ["a", "b"] {
+        stokes::film::write_exr(
+            &d.join(format!("images/{v}__time0__r0.exr")),
+            16,
+            16,
+            &halves(16, 16, 1.0, 1.0),
+        )
+        .unwrap();
+    }
     let o = figures(&d);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");

@@ -2,7 +2,9 @@
 //!
 //! Mutants of the shipped scenes, experiment configs, spectra CSVs, BFC matrices, `.vol` grids,
 //! run records, EXR images, Gaussian-mixture model files and an OBJ mesh are fed to the `stokes`
-//! binary, and each run must end in one of two ways: exit 0 with finite output (for renders,
+//! binary, as are inputs that are FIFOs, devices or folders, outputs onto such things or with odd
+//! names, and planned run folders edited by hand (tests/fuzz/special.rs, whose guarded paths
+//! must not change); each run must end in one of two ways: exit 0 with finite output (for renders,
 //! the stats show `nan_inf_rejected == 0` and every EXR value is finite), or exit 2 with a
 //! message that names a file. A panic (101), any other exit code, a signal, or more than 10 s
 //! is a failure. All failures are collected and printed as one table before the test fails.
@@ -21,6 +23,8 @@ mod corpus;
 mod json;
 #[path = "fuzz/mutate.rs"]
 mod mutate;
+#[path = "fuzz/special.rs"]
+mod special;
 
 use corpus::{Base, Case, Check, Kind, s, walk};
 use rand::SeedableRng;
@@ -33,7 +37,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-/// Cases in CI: about 40 s on 2 idle cores, setup included (docs/hardening.md).
+/// Cases in CI: about 65 s on 2 idle cores, setup included (docs/hardening.md).
 const CI_CASES: u64 = 5000;
 const CI_SEED: u64 = 13;
 /// Wall-clock limit of one `stokes` run.
@@ -223,6 +227,12 @@ fn mutated_fields(mutation: &str) -> String {
 
 /// The verdict on one case: Ok(exit code) or Err((what failed, detail)).
 fn judge(case: &Case, o: &Outcome) -> Result<i32, (String, String)> {
+    // Whatever the exit code: what the case guards (special files, the folder outside a run's
+    // results root) is as it was.
+    let changed = special::changed_guards(case);
+    if !changed.is_empty() {
+        return Err(("changed a guarded path".into(), changed.join("; ")));
+    }
     if o.timed_out {
         return Err((
             format!("timeout > {} s", TIMEOUT.as_secs()),
@@ -404,6 +414,36 @@ fn setup_outputs(base: &mut Base, cache: &Path) {
         base.gmm_models.push(out);
     }
     base.strings.push(s(&base.gmm_models[0]));
+    // A finished planned run in a results root (every job done, not collected), for the
+    // run-folder cases: the smoke config with two reference shards.
+    let planned = base.dir.join("planned");
+    std::fs::create_dir_all(&planned).unwrap();
+    let cfg = planned.join("smoke.json");
+    std::fs::write(&cfg, base.config("smoke-pt-mono.json").to_text()).unwrap();
+    let args: Vec<String> = vec![
+        "experiment".into(),
+        s(&cfg),
+        "--quick".into(),
+        "--plan".into(),
+        "--reference-shards".into(),
+        "2".into(),
+    ];
+    let o = run_stokes(&args, &planned, cache);
+    assert!(
+        o.code == Some(0),
+        "fuzz setup: planning failed: {}",
+        o.stderr
+    );
+    let run = std::fs::read_to_string(planned.join("stdout.txt")).unwrap();
+    let run = PathBuf::from(run.trim());
+    let o = run_stokes(&["job".into(), s(&run), "--all".into()], &planned, cache);
+    assert!(
+        o.code == Some(0),
+        "fuzz setup: the planned jobs failed: {}",
+        o.stderr
+    );
+    let rel = run.strip_prefix(&planned).unwrap().to_path_buf();
+    base.planned = Some((planned, rel));
 }
 
 fn rel_to(base: &Path, p: &Path) -> String {
@@ -730,11 +770,16 @@ fn remove_stale(root: &Path) {
 fn keep_case(case: &Case, dst: &Path, cache: &Path) {
     let dir = &case.dir;
     std::fs::create_dir_all(dst).unwrap();
+    // Regular files only: a FIFO would block the copy (links and special files are named in
+    // the mutation, and repro.sh makes none of them again).
+    let regular = |f: &Path| std::fs::symlink_metadata(f).is_ok_and(|m| m.is_file());
     for f in walk(dir) {
         let r = f.strip_prefix(dir).unwrap();
         let t = dst.join(r);
         std::fs::create_dir_all(t.parent().unwrap()).unwrap();
-        let _ = std::fs::copy(&f, &t);
+        if regular(&f) {
+            let _ = std::fs::copy(&f, &t);
+        }
     }
     let from = s(dir);
     let to = s(dst);
@@ -745,7 +790,8 @@ fn keep_case(case: &Case, dst: &Path, cache: &Path) {
         .collect();
     // Mutants that refer to each other (a scene and its data file) move together.
     for f in walk(dst) {
-        if let Ok(t) = std::fs::read_to_string(&f)
+        if regular(&f)
+            && let Ok(t) = std::fs::read_to_string(&f)
             && t.contains(&from)
         {
             std::fs::write(&f, t.replace(&from, &to)).unwrap();

@@ -2,14 +2,15 @@
 //! import each other in a cycle, the bidirectional integrators do not reach into the
 //! uni-directional ones, and no function outside tests runs past about 120 lines.
 //!
-//! Layers, lowest first: `spectrum`, `geometry` < `film`, `material`, `medium` < `scene` <
-//! `error`, `transport` < `integrator` < `experiment` < `gmm` < `cli` < `main`. A new top-level module
-//! must be given a layer here.
+//! Layers, lowest first: `io` (files), `spectrum`, `geometry` < `film`, `material`, `medium` <
+//! `scene` < `error`, `transport` < `integrator` < `experiment` < `gmm` < `cli` < `main`. A new
+//! top-level module must be given a layer here.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 const LAYERS: &[(&str, u32)] = &[
+    ("io", 0),
     ("spectrum", 0),
     ("geometry", 0),
     ("film", 1),

@@ -244,11 +244,10 @@ fn bad_name(s: &str) -> String {
 impl Config {
     /// Read, parse and validate a config file.
     pub fn load(path: &Path) -> Result<Config, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| err(path, "", format!("cannot read config: {e}")))?;
-        // A UTF-8 byte-order mark (some editors write one) is not JSON: skip it.
-        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        let c: Config = from_json_str(path, text)?;
+        // (a UTF-8 byte-order mark, which some editors write, is dropped)
+        let text = crate::io::input::read_text(path, crate::io::input::CONFIG)
+            .map_err(|e| err(path, "", format!("cannot read the config: {e}")))?;
+        let c: Config = from_json_str(path, &text)?;
         c.validate(path)?;
         Ok(c)
     }

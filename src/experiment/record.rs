@@ -51,8 +51,8 @@ impl RunInfo {
     /// Read `run.json` of the run folder `dir` and check it (see [`RunInfo::check`]).
     pub fn read(dir: &Path) -> Result<RunInfo, Error> {
         let p = dir.join("run.json");
-        let text = std::fs::read_to_string(&p)
-            .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?;
+        let text =
+            crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
         let info: RunInfo = crate::scene::error::from_json_str(&p, &text)?;
         info.check(&p)?;
         Ok(info)
@@ -171,14 +171,8 @@ impl RunInfo {
     }
 }
 
-/// A relative path that stays inside its folder (no root, no `..`).
-pub fn safe_relative(p: &str) -> bool {
-    use std::path::Component;
-    !p.is_empty()
-        && Path::new(p)
-            .components()
-            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
-}
+/// Whether `p` is a relative path that stays inside its base (`io::tree::safe_relative`).
+pub use crate::io::tree::safe_relative;
 
 /// The marker file of a run folder that is being written or whose run failed or was
 /// interrupted: written before anything renders, removed when the run completes.
@@ -222,7 +216,8 @@ pub fn check_complete(run_dir: &Path) -> Result<(), Error> {
     for d in dirs {
         let m = d.join(INCOMPLETE);
         if m.exists() {
-            let what = std::fs::read_to_string(&m).unwrap_or_default();
+            let what =
+                crate::io::input::read_text(&m, crate::io::input::RUN_RECORD).unwrap_or_default();
             return Err(Error::input(format!(
                 "'{}' is an incomplete run (marker '{}': {}); run the experiment again",
                 d.display(),
@@ -349,9 +344,8 @@ pub fn metrics_csv(rows: &[Row]) -> String {
 /// Read `metrics.csv` (a UTF-8 BOM is skipped); the header must be ours. Errors are input
 /// errors naming the file, the line and the column.
 pub fn read_metrics(path: &Path) -> Result<Vec<Row>, Error> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", path.display())))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let text =
+        crate::io::input::read_text(path, crate::io::input::RUN_TABLE).map_err(Error::input)?;
     let mut lines = text.lines().enumerate();
     match lines.next() {
         Some((_, h)) if h.trim() == CSV_HEADER => {}

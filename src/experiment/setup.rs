@@ -53,13 +53,8 @@ impl Setup {
             }
         });
         let scene_path = cfg.scene_path(config_path);
-        let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
-            Error::input(format!(
-                "{}: field `scene`: cannot read '{}': {e}",
-                config_path.display(),
-                scene_path.display()
-            ))
-        })?;
+        let scene_text = crate::io::input::read_text(&scene_path, crate::io::input::SCENE)
+            .map_err(|e| Error::input(format!("{}: field `scene`: {e}", config_path.display())))?;
         // the BVH build on the config's `threads`, as the renders
         let mut scene = with_threads(cfg.threads, || Scene::from_str(&scene_path, &scene_text))
             .map_err(Error::runtime)??;
@@ -100,26 +95,35 @@ impl Setup {
 
     /// Check, before anything renders, that the results root takes the run folder and (when a
     /// reference is rendered) the reference cache: create both folders and a probe file in each.
+    /// What the run will write there (`<name>/runs/`, `<name>/latest`, `references/`) must not
+    /// be or pass through a link, a FIFO or a device (docs/hardening.md).
     pub fn check_writable(&self) -> Result<(), Error> {
-        let mut dirs = vec![self.root.join(&self.cfg.name).join("runs")];
+        let name = Path::new(&self.cfg.name);
+        let mut dirs = vec![name.join("runs")];
         if self
             .cfg
             .reference
             .as_ref()
             .is_some_and(|r| r.integrator.is_some())
         {
-            dirs.push(self.root.join("references"));
+            dirs.push("references".into());
         }
-        for d in dirs {
-            std::fs::create_dir_all(&d)
-                .map_err(|e| format!("cannot create '{}': {e}", d.display()))
-                .and_then(|()| crate::film::output::probe_writable(&d.join("probe")))
-                .map_err(|e| {
-                    Error::input(format!(
-                        "results folder (--out) '{}': {e}",
-                        self.root.display()
-                    ))
-                })?;
+        let bad = |e: String| {
+            Error::input(format!(
+                "results folder (--out) '{}': {e}",
+                crate::io::text::show_path(&self.root)
+            ))
+        };
+        crate::io::tree::check_below(&self.root, &name.join("latest")).map_err(bad)?;
+        for rel in dirs {
+            let d = self.root.join(&rel);
+            crate::io::tree::check_below(&self.root, &rel)
+                .and_then(|()| {
+                    std::fs::create_dir_all(&d)
+                        .map_err(|e| format!("cannot create '{}': {e}", d.display()))
+                })
+                .and_then(|()| crate::io::output::check_folder(&d))
+                .map_err(bad)?;
         }
         Ok(())
     }
@@ -257,8 +261,7 @@ fn load_variant_scene(
             config_path.display()
         ))
     };
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| field(format!("cannot read '{}': {e}", path.display())))?;
+    let text = crate::io::input::read_text(path, crate::io::input::SCENE).map_err(field)?;
     let scene = with_threads(threads, || Scene::from_str(path, &text))
         .map_err(Error::runtime)?
         .map_err(|e| field(format!("the scene is not valid: {e}")))?;

@@ -121,8 +121,8 @@ impl SweepRecord {
     /// inside the run folder.
     pub fn read(dir: &Path) -> Result<SweepRecord, Error> {
         let p = dir.join("sweep.json");
-        let text = std::fs::read_to_string(&p)
-            .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?;
+        let text =
+            crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
         let rec: SweepRecord = crate::scene::error::from_json_str(&p, &text)?;
         for (i, pt) in rec.points.iter().enumerate() {
             if !super::record::safe_relative(&pt.dir) {

@@ -1,108 +1,14 @@
-//! Image output: OpenEXR (linear sRGB, f32) and an 8-bit sRGB PNG preview. Both are written to
-//! a temporary file in the target folder and renamed, so an interrupted run never leaves a
-//! half-written image in place of an earlier one. The temporary files being written are listed
-//! in a process-wide registry, so that a signal handler ([`remove_in_flight`]) can delete them
-//! before the process exits.
+//! Image output: OpenEXR (linear sRGB, f32) and an 8-bit sRGB PNG preview, written through
+//! [`crate::io::output`] (checked before any work, a temporary file renamed into place), and
+//! OpenEXR read back through [`crate::io::input`] (a regular file, its size checked from the
+//! header before anything is allocated).
 
+pub use crate::io::output::{
+    canonical_output, check_output, has_extension, in_flight_paths, remove_in_flight, write_atomic,
+};
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-
-/// Temporary files being written now (registered by [`write_atomic`] until renamed or removed).
-static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-fn in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
-    IN_FLIGHT.lock().unwrap_or_else(|p| p.into_inner())
-}
-
-/// The temporary files being written now.
-pub fn in_flight_paths() -> Vec<PathBuf> {
-    in_flight().clone()
-}
-
-/// Delete every temporary file being written now (for a signal handler that is about to exit).
-/// The registry stays locked afterwards until the process exits, so no new one is started.
-pub fn remove_in_flight() {
-    let mut g = in_flight();
-    for p in g.drain(..) {
-        let _ = std::fs::remove_file(&p);
-    }
-    std::mem::forget(g);
-}
-
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}
-
-/// Write `bytes_writer` output to a temp file, then rename over `path`.
-pub fn write_atomic(
-    path: &Path,
-    f: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
-    if let Some(dir) = path.parent()
-        && !dir.as_os_str().is_empty()
-    {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create folder '{}': {e}", dir.display()))?;
-    }
-    let tmp = temp_path(path);
-    in_flight().push(tmp.clone());
-    let r = f(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path).map_err(|e| {
-            format!(
-                "cannot move the output into place at '{}': {e}",
-                path.display()
-            )
-        })
-    });
-    if r.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    let mut g = in_flight();
-    if let Some(i) = g.iter().position(|p| p == &tmp) {
-        g.swap_remove(i);
-    }
-    r
-}
-
-/// Check, before any work, that a file can be created in `path`'s folder (which must exist), and
-/// that `path` is not a folder: create and remove a probe file there. The error says why not.
-pub fn probe_writable(path: &Path) -> Result<(), String> {
-    if path.is_dir() {
-        return Err(format!("'{}' is a folder, not a file", path.display()));
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!("the folder '{}' does not exist", dir.display()));
-    }
-    let probe = dir.join(format!(".stokes-probe.{}.tmp", std::process::id()));
-    in_flight().push(probe.clone());
-    let r = std::fs::OpenOptions::new()
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(&probe)
-        .map(drop)
-        .map_err(|e| format!("cannot write in the folder '{}': {e}", dir.display()));
-    let _ = std::fs::remove_file(&probe);
-    in_flight().retain(|p| p != &probe);
-    r
-}
-
-/// Whether `path` has the extension `ext` (ASCII case-insensitive, without the dot).
-pub fn has_extension(path: &Path, ext: &str) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
-}
+use std::path::Path;
 
 /// The block layout of the EXRs we write: RLE-compressed 64×64 tiles (the exr crate's default)
 /// written in increasing-y order. Blocks are still compressed in parallel, but the writer puts
@@ -143,11 +49,45 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(
 /// Most pixels of an EXR we read back (any image the renderer can make fits).
 pub const MAX_READ_PIXELS: usize = 1 << 26;
 
-/// Read an RGB(A) OpenEXR as linear sRGB. Its size is checked from the header before anything
-/// is allocated.
+/// Read an RGB(A) OpenEXR as linear sRGB. It must be a regular file; its size is checked from
+/// the header before anything is allocated.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
     use exr::prelude::*;
-    let meta = exr::meta::MetaData::read_from_file(path, false)
+    let (w, _) = read_exr_header(path)?;
+    let (reader, _) = crate::io::input::reader(path, crate::io::input::EXR)?;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res, _| {
+                (
+                    res.width(),
+                    res.height(),
+                    vec![Vec3::ZERO; res.width() * res.height()],
+                )
+            },
+            |(w, _, px): &mut (usize, usize, Vec<Vec3>),
+             pos,
+             (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(reader)
+        .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
+    let (w2, h, px) = img.layer_data.channel_data.pixels;
+    debug_assert!(w2 == w.width());
+    Ok((w2 as u32, h as u32, px))
+}
+
+/// The header of the OpenEXR `path` (a regular file), with its first layer's size checked: at
+/// most [`MAX_READ_PIXELS`] pixels in every layer, none empty.
+pub fn read_exr_header(
+    path: &Path,
+) -> Result<(exr::math::Vec2<usize>, exr::meta::MetaData), String> {
+    let (reader, _) = crate::io::input::reader(path, crate::io::input::EXR)?;
+    let meta = exr::meta::MetaData::read_from_buffered(reader, false)
         .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
     for h in &meta.headers {
         let (w, ht) = (h.layer_size.width(), h.layer_size.height());
@@ -158,22 +98,12 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
             ));
         }
     }
-    let img = read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            (
-                res.width(),
-                res.height(),
-                vec![Vec3::ZERO; res.width() * res.height()],
-            )
-        },
-        |(w, _, px): &mut (usize, usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
-        },
-    )
-    .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
-    let (w, h, px) = img.layer_data.channel_data.pixels;
-    Ok((w as u32, h as u32, px))
+    let first = meta
+        .headers
+        .first()
+        .ok_or_else(|| format!("EXR '{}' has no layer", path.display()))?
+        .layer_size;
+    Ok((first, meta))
 }
 
 /// Write an 8-bit sRGB PNG preview; `exposure` is in stops.

@@ -17,7 +17,7 @@
 //! leave a gap.
 
 use super::Film;
-use super::output::{MAX_READ_PIXELS, exr_encoding, write_atomic};
+use super::output::{exr_encoding, write_atomic};
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -171,27 +171,29 @@ fn attributes(i: &ShardInfo) -> Vec<(String, String)> {
         "scene": i.scene,
         "sceneHash": i.scene_hash,
     });
-    vec![(ATTRIBUTE.into(), v.to_string())]
+    // An EXR text attribute holds Latin-1 only: non-ASCII (a scene path such as `☃.json`) is
+    // escaped as JSON `\uXXXX`, which reads back as the same string.
+    vec![(
+        ATTRIBUTE.into(),
+        crate::io::text::json_ascii(&v.to_string()),
+    )]
 }
 
 /// Read a shard EXR back, checking its attributes and sums as untrusted input.
 pub fn read_shard(path: &Path) -> Result<Shard, String> {
     use exr::prelude::*;
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
-    let h = meta
-        .headers
-        .first()
-        .ok_or_else(|| format!("EXR '{}' has no layer", path.display()))?;
-    let (w, ht) = (h.layer_size.width(), h.layer_size.height());
-    if w == 0 || ht == 0 || w.saturating_mul(ht) > MAX_READ_PIXELS {
-        return Err(format!(
-            "EXR '{}': a layer of {w}×{ht} pixels (at most {MAX_READ_PIXELS} pixels, none empty)",
-            path.display()
-        ));
-    }
+    let (size, meta) = crate::film::output::read_exr_header(path)?;
+    let h = &meta.headers[0];
+    let (w, ht) = (size.width(), size.height());
     let info = info_from(path, &text_attributes(h))?;
-    let img = read_first_flat_layer_from_file(path)
+    let (reader, _) = crate::io::input::reader(path, crate::io::input::EXR)?;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(reader)
         .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
     let channels = &img.layer_data.channel_data.list;
     let n = w * ht;

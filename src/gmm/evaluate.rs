@@ -43,7 +43,6 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Where the illuminant tables live, relative to the crate root.
-pub const DEFAULT_ILLUMINANTS: &str = "data/spectra/illuminants";
 /// Where `stokes gmm eval` writes by default.
 pub const DEFAULT_OUT: &str = "results/gmm-eval";
 
@@ -139,14 +138,15 @@ pub struct Summary {
 
 /// Fit every `*.BFC` matrix of `dir` (sorted by name) with each number of `components` by
 /// `method` and compare measured and fitted colours under the illuminants of `illuminants_dir`
-/// and under monochromatic light; write the CSV, the summary and the box plots into `out`.
+/// (the illuminants built into stokes when `None`) and under monochromatic light; write the
+/// CSV, the summary and the box plots into `out`.
 pub fn evaluate(
     dir: &Path,
     components: &[usize],
     method: FitMethod,
     seed: u64,
     out: &Path,
-    illuminants_dir: &Path,
+    illuminants_dir: Option<&Path>,
 ) -> Result<Summary, Error> {
     let fit = |m: &BfcMatrix, k: usize| -> Result<BfcMatrix, String> {
         Ok(fit_matrix(m, &FitOptions::new(k, method, seed))?.to_matrix())
@@ -171,7 +171,8 @@ pub struct Run<'a> {
     pub method: FitMethod,
     pub seed: u64,
     pub out: &'a Path,
-    pub illuminants_dir: &'a Path,
+    /// A folder of illuminant tables; `None`: the CIE illuminants built into stokes.
+    pub illuminants_dir: Option<&'a Path>,
 }
 
 /// [`evaluate`] with the fit given as a function from a matrix and a number of components to
@@ -186,8 +187,12 @@ where
             run.components
         )));
     }
-    let illuminants = load_illuminants(run.illuminants_dir)?;
+    let illuminants = match run.illuminants_dir {
+        Some(d) => load_illuminants(d)?,
+        None => embedded_illuminants()?,
+    };
     let materials = load_matrices(run.dir)?;
+    check_output_folder(run.out)?;
     let start = std::time::Instant::now();
     let bar = crate::experiment::progress::bar(materials.len() as u64);
     let per_material: Vec<Vec<Row>> = materials
@@ -237,31 +242,44 @@ where
 pub fn load_illuminants(dir: &Path) -> Result<Vec<Illuminant>, Error> {
     let mut out = Vec::new();
     for path in files_with_extension(dir, "csv", "illuminant")? {
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            Error::input(format!("cannot read illuminant '{}': {e}", path.display()))
-        })?;
-        let bad = |m: String| Error::input(format!("illuminant '{}': {m}", path.display()));
-        let (xs, ys) = crate::scene::spectra::parse_csv(&text).map_err(bad)?;
-        if let Some(w) = xs.windows(2).find(|w| !(w[1] > w[0])) {
-            return Err(bad(format!(
-                "wavelengths must increase ({} then {})",
-                w[0], w[1]
-            )));
-        }
-        if let Some(v) = ys.iter().find(|v| **v < 0.0) {
-            return Err(bad(format!("values must not be negative (found {v})")));
-        }
-        let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-        let name = stem
-            .strip_prefix("illuminant_")
-            .unwrap_or(&stem)
-            .to_string();
-        out.push(Illuminant {
-            name,
-            spectrum: Spectrum::Tabulated { xs, ys },
-        });
+        let text = crate::io::input::read_text(&path, crate::io::input::SPECTRUM_CSV)
+            .map_err(|e| Error::input(format!("cannot read an illuminant: {e}")))?;
+        out.push(parse_illuminant(&path, &text)?);
     }
     Ok(out)
+}
+
+/// The CIE illuminants built into stokes (`data/spectra/illuminants/`), sorted by file name.
+pub fn embedded_illuminants() -> Result<Vec<Illuminant>, Error> {
+    crate::spectrum::illuminants::EMBEDDED
+        .iter()
+        .map(|(name, text)| parse_illuminant(Path::new(name), text))
+        .collect()
+}
+
+/// One illuminant table (`path` names it in errors and gives its name: the file stem without
+/// `illuminant_`).
+fn parse_illuminant(path: &Path, text: &str) -> Result<Illuminant, Error> {
+    let bad = |m: String| Error::input(format!("illuminant '{}': {m}", path.display()));
+    let (xs, ys) = crate::scene::spectra::parse_csv(text).map_err(bad)?;
+    if let Some(w) = xs.windows(2).find(|w| !(w[1] > w[0])) {
+        return Err(bad(format!(
+            "wavelengths must increase ({} then {})",
+            w[0], w[1]
+        )));
+    }
+    if let Some(v) = ys.iter().find(|v| **v < 0.0) {
+        return Err(bad(format!("values must not be negative (found {v})")));
+    }
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let name = stem
+        .strip_prefix("illuminant_")
+        .unwrap_or(&stem)
+        .to_string();
+    Ok(Illuminant {
+        name,
+        spectrum: Spectrum::Tabulated { xs, ys },
+    })
 }
 
 /// The `*.BFC` files of `dir` (any case), parsed and cleaned, sorted by file name, with the
@@ -269,8 +287,8 @@ pub fn load_illuminants(dir: &Path) -> Result<Vec<Illuminant>, Error> {
 pub fn load_matrices(dir: &Path) -> Result<Vec<(PathBuf, String, BfcMatrix)>, Error> {
     let mut out = Vec::new();
     for path in files_with_extension(dir, "bfc", "BFC matrix")? {
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| Error::input(format!("cannot read '{}': {e}", path.display())))?;
+        let text =
+            crate::io::input::read_text(&path, crate::io::input::BFC).map_err(Error::input)?;
         let m = BfcMatrix::parse(&text)
             .map_err(|e| Error::input(format!("{}: {e}", path.display())))?;
         let name = path
@@ -505,6 +523,30 @@ fn write_text(path: &Path, text: &str) -> Result<(), String> {
     })
 }
 
+/// Before anything is fitted: the output folder exists (it is created) and takes new files, and
+/// nothing the evaluation writes there (`delta-e00.csv`, `summary.json`, the `.svg` and `.png`
+/// box plots) is anything but a regular file.
+fn check_output_folder(out: &Path) -> Result<(), Error> {
+    let bad = |e: String| Error::input(format!("-o/--output '{}': {e}", out.display()));
+    std::fs::create_dir_all(out)
+        .map_err(|e| format!("cannot create the folder: {e}"))
+        .and_then(|()| crate::io::output::check_folder(out))
+        .map_err(bad)?;
+    let rd = std::fs::read_dir(out).map_err(|e| bad(format!("cannot list the folder: {e}")))?;
+    for e in rd.flatten() {
+        let p = e.path();
+        let n = e.file_name().to_string_lossy().into_owned();
+        let ours = n == "delta-e00.csv"
+            || n == "summary.json"
+            || n.ends_with(".svg")
+            || n.ends_with(".png");
+        if ours {
+            crate::io::output::refuse_non_regular(&p).map_err(bad)?;
+        }
+    }
+    Ok(())
+}
+
 fn write_outputs(run: &Run, rows: &[Row], summary: &mut Summary) -> Result<(), String> {
     std::fs::create_dir_all(run.out).map_err(|e| {
         format!(
@@ -584,7 +626,13 @@ mod tests {
     }
 
     fn illuminants() -> Vec<Illuminant> {
-        load_illuminants(&root().join(DEFAULT_ILLUMINANTS)).unwrap()
+        let from_folder = load_illuminants(&root().join("data/spectra/illuminants")).unwrap();
+        let embedded = embedded_illuminants().unwrap();
+        assert_eq!(from_folder.len(), embedded.len());
+        for (a, b) in from_folder.iter().zip(&embedded) {
+            assert_eq!(a.name, b.name);
+        }
+        embedded
     }
 
     /// A folder with two RIT matrices.
@@ -682,7 +730,7 @@ mod tests {
             method: FitMethod::Em,
             seed: 1,
             out: &out,
-            illuminants_dir: &root().join(DEFAULT_ILLUMINANTS),
+            illuminants_dir: None,
         };
         let s = evaluate_with(&run, &|m, _| Ok(m.clone())).unwrap();
         assert_eq!(s.materials, ["GOLFORA", "INCWHITE"]);
@@ -713,7 +761,7 @@ mod tests {
 
     #[test]
     fn a_missing_folder_or_a_malformed_file_is_an_input_error_naming_it() {
-        let ill = root().join(DEFAULT_ILLUMINANTS);
+        let ill = root().join("data/spectra/illuminants");
         let missing = root().join("data/no-such-folder");
         let run = |dir: &Path, out: &Path| -> Result<Summary, Error> {
             let r = Run {
@@ -722,7 +770,7 @@ mod tests {
                 method: FitMethod::Em,
                 seed: 0,
                 out,
-                illuminants_dir: &ill,
+                illuminants_dir: Some(&ill),
             };
             evaluate_with(&r, &|m, _| Ok(m.clone()))
         };
@@ -757,7 +805,7 @@ mod tests {
             method: FitMethod::Em,
             seed: 0,
             out: &dir2.join("out"),
-            illuminants_dir: &ill,
+            illuminants_dir: Some(&ill),
         };
         let e = evaluate_with(&r, &|m, _| {
             let mut f = m.clone();
@@ -805,15 +853,7 @@ mod tests {
     fn real_fits_of_two_matrices() {
         let dir = two_files("fit");
         let out = dir.join("out");
-        let s = evaluate(
-            &dir,
-            &[2],
-            FitMethod::Em,
-            0,
-            &out,
-            &root().join(DEFAULT_ILLUMINANTS),
-        )
-        .unwrap();
+        let s = evaluate(&dir, &[2], FitMethod::Em, 0, &out, None).unwrap();
         let k = &s.per_components[0];
         assert_eq!((k.cie.n, k.mono.n), (2 * 59, 2 * 49));
         // Hua §7.5: below 1.1 on average over the dataset with two Gaussians (these two give
@@ -835,7 +875,7 @@ mod tests {
             FitMethod::Em,
             0,
             &out,
-            &root().join(DEFAULT_ILLUMINANTS),
+            None,
         )
         .unwrap();
         eprintln!("{} matrices in {:.1} s", s.materials.len(), s.seconds);

@@ -20,8 +20,7 @@ pub struct Fitted {
 
 /// Read, clean and fit one BFC file; the model's `source` names it.
 pub fn fit_file(path: &Path, opt: &FitOptions) -> Result<GmmFile, Error> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", path.display())))?;
+    let bytes = crate::io::input::read_bytes(path, crate::io::input::BFC).map_err(Error::input)?;
     let m = std::str::from_utf8(&bytes)
         .map_err(|e| e.to_string())
         .and_then(BfcMatrix::parse)

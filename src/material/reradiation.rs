@@ -90,6 +90,8 @@ impl BfcMatrix {
     /// Parse a BFC-450 matrix file and clean it (Hua §5.1). Errors name the line and what is
     /// wrong.
     pub fn parse(text: &str) -> Result<Self, String> {
+        // A UTF-8 byte-order mark (some editors write one) is skipped, as the other readers do.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
             .lines()
             .enumerate()
@@ -124,6 +126,20 @@ impl BfcMatrix {
             return Err(format!(
                 "line {cno}: expected 'r:c:' followed by {n_ex} excitation wavelengths"
             ));
+        }
+        // The column labels are the header's excitation grid, in order.
+        for (i, label) in cols[1..].iter().enumerate() {
+            let want = ex_lo + i as f32 * step;
+            match label.parse::<f32>() {
+                Ok(x) if (x - want).abs() <= 1e-3 * step.max(1.0) => {}
+                _ => {
+                    return Err(format!(
+                        "line {cno}: column {} of 'r:c:' is '{label}', but the header's \
+                         excitation grid puts {want} nm there",
+                        i + 1
+                    ));
+                }
+            }
         }
         let mut d = vec![0.0f32; n_em * n_ex];
         let mut row_line = vec![0; n_em];
@@ -561,6 +577,54 @@ mod tests {
     use crate::spectrum::DEFAULT_DOMAIN;
 
     const GOLFYE: &str = include_str!("../../data/bispectral/GOLFYE.BFC");
+
+    /// Every BFC file of `data/bispectral` (the 144 RIT matrices and the daily repeats) parses,
+    /// its column labels on the header's grid; reversed or non-numeric labels are refused, and a
+    /// byte-order mark is skipped.
+    #[test]
+    fn every_shipped_bfc_parses_and_labels_are_checked() {
+        fn walk(d: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+            for e in std::fs::read_dir(d).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    walk(&p, out);
+                } else if p.extension().is_some_and(|x| x.eq_ignore_ascii_case("bfc")) {
+                    out.push(p);
+                }
+            }
+        }
+        let mut files = Vec::new();
+        walk(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/bispectral"),
+            &mut files,
+        );
+        assert!(files.len() > 144, "{}", files.len());
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap();
+            BfcMatrix::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        }
+        let lines: Vec<&str> = GOLFYE.lines().collect();
+        let c = lines.iter().position(|l| l.starts_with("r:c:")).unwrap();
+        let mut labels: Vec<&str> = lines[c].split_whitespace().collect();
+        labels[1..].reverse();
+        let reversed = lines
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == c {
+                    labels.join(" ")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        let e = BfcMatrix::parse(&reversed).unwrap_err();
+        assert!(e.contains("column 1 of 'r:c:' is '780'"), "{e}");
+        let junk = GOLFYE.replacen("r:c:\t300", "r:c:\tabc", 1);
+        assert!(BfcMatrix::parse(&junk).unwrap_err().contains("'abc'"));
+        assert!(BfcMatrix::parse(&format!("\u{feff}{GOLFYE}")).is_ok());
+    }
 
     #[test]
     fn parses_and_cleans_rit_file() {

@@ -127,11 +127,7 @@ impl DensityGrid {
     /// `src/volumes/grid.cpp` documentation and `src/render/volumegrid.cpp`, `VolumeGrid::read`).
     /// The error says what is wrong; the caller adds the file and the scene field.
     pub fn read_vol(path: &Path) -> Result<DensityGrid, String> {
-        let file = std::fs::File::open(path).map_err(|e| format!("cannot open the file: {e}"))?;
-        let len = file
-            .metadata()
-            .map_err(|e| format!("cannot read the file's size: {e}"))?
-            .len();
+        let (file, len) = crate::io::input::open(path, crate::io::input::VOL)?;
         if len < HEADER_BYTES {
             return Err(format!(
                 "the file holds {len} bytes, less than the {HEADER_BYTES}-byte .vol header"

@@ -2,7 +2,7 @@
 //! domain and camera checks, spectra and materials, shapes (triangles, spheres, OBJ files) and
 //! their lights, the light selection distribution, and the acceleration structure.
 
-use super::error::from_json_value;
+use super::error::from_tagged_value;
 use super::format::{
     self, CameraDesc, EmissionDesc, FovAxis, MaterialDesc, ShapeDesc, ShapeGeometry,
 };
@@ -50,7 +50,7 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
     let mut material_names = Vec::new();
     for (name, v) in &f.materials {
         let base = format!("materials.{name}");
-        let desc: MaterialDesc = from_json_value(path, &base, v)?;
+        let desc: MaterialDesc = from_tagged_value(path, &base, "type", v)?;
         materials.push(material(&ctx, &base, desc, &mut warnings)?);
         material_names.push(name.clone());
     }
@@ -354,12 +354,8 @@ fn material(
         #[cfg(feature = "fluorescence")]
         MaterialDesc::Reradiation { file } => {
             let full = ctx.dir.join(&file);
-            let text = std::fs::read_to_string(&full).map_err(|e| {
-                err(
-                    &format!("{base}.file"),
-                    format!("cannot read '{}': {e}", full.display()),
-                )
-            })?;
+            let text = crate::io::input::read_text(&full, crate::io::input::BFC)
+                .map_err(|e| err(&format!("{base}.file"), e))?;
             let m = Reradiation::parse_bfc(&text, domain).map_err(|m| {
                 err(
                     &format!("{base}.file"),
@@ -744,15 +740,31 @@ fn obj_triangles(
     tr: Vec3,
     budget: usize,
 ) -> Result<Vec<Triangle>, String> {
-    let (models, _) = tobj::load_obj(
-        full,
-        &tobj::LoadOptions {
-            triangulate: true,
-            single_index: false,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| format!("cannot load OBJ '{}': {e}", full.display()))?;
+    use crate::io::input::{LineCapped, MAX_LINE_BYTES, MTL, OBJ, reader};
+    let (r, _) = reader(full, OBJ)?;
+    let mut r = LineCapped::new(r, MAX_LINE_BYTES);
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ..Default::default()
+    };
+    // Material libraries are read as the OBJ is (a regular file, capped); their materials are
+    // not used, so one that cannot be read is no error.
+    let dir = full.parent().unwrap_or(Path::new("."));
+    let mtl = |p: &Path| match reader(&dir.join(p), MTL) {
+        Ok((m, _)) => tobj::load_mtl_buf(&mut LineCapped::new(m, MAX_LINE_BYTES)),
+        Err(_) => Err(tobj::LoadError::OpenFileFailed),
+    };
+    let (models, _) = tobj::load_obj_buf(&mut r, &options, mtl).map_err(|e| {
+        if r.overlong() {
+            format!(
+                "cannot load OBJ '{}': a line longer than {MAX_LINE_BYTES} bytes",
+                full.display()
+            )
+        } else {
+            format!("cannot load OBJ '{}': {e}", full.display())
+        }
+    })?;
     let n: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
     if n > budget {
         return Err(format!(

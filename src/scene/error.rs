@@ -39,18 +39,118 @@ impl fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
-/// Deserialize `T` from JSON text with the JSON path of any error.
+/// Deserialize `T` from JSON text with the JSON path of any error. The text must be one JSON
+/// object and nothing after it but whitespace ([`crate::io::json::json_document`]).
 pub fn from_json_str<T: serde::de::DeserializeOwned>(
     file: &Path,
     text: &str,
 ) -> Result<T, InputError> {
-    let de = &mut serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
+    crate::io::json::json_document(text, "{").map_err(|m| InputError::new(file, "", m))?;
+    let mut de = serde_json::Deserializer::from_str(text);
+    let v = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
         let path = if path == "." { String::new() } else { path };
         InputError::new(file, path, format!("{inner}"))
+    })?;
+    de.end().map_err(|e| {
+        InputError::new(
+            file,
+            "",
+            format!("{e}: nothing may follow the JSON document but whitespace"),
+        )
+    })?;
+    Ok(v)
+}
+
+/// Deserialize `T` from JSON text that must be one JSON array ([`from_json_str`] otherwise).
+pub fn from_json_array_str<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    text: &str,
+) -> Result<T, InputError> {
+    crate::io::json::json_document(text, "[").map_err(|m| InputError::new(file, "", m))?;
+    let mut de = serde_json::Deserializer::from_str(text);
+    let v = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        InputError::new(file, path, format!("{}", e.into_inner()))
+    })?;
+    de.end().map_err(|e| {
+        InputError::new(file, "", format!("{e}: nothing may follow the JSON array"))
+    })?;
+    Ok(v)
+}
+
+/// Deserialize an internally tagged `T` (`{"type": "gaussian", "center": …}`) from the JSON
+/// object `v` at `base` within `file`, keeping the JSON path of errors inside it. `T` is written
+/// as an externally tagged serde enum (`{"gaussian": {"center": …}}`), into which the object is
+/// turned: serde's own internally tagged enums buffer their content and lose the path, so a
+/// wrong `quantum_yield` would be blamed on its material. The tag `tag` must be a string.
+pub fn from_tagged_value<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    base: &str,
+    tag: &str,
+    v: &serde_json::Value,
+) -> Result<T, InputError> {
+    use serde_json::Value;
+    let at = |f: &str| {
+        if base.is_empty() {
+            f.to_string()
+        } else {
+            format!("{base}.{f}")
+        }
+    };
+    let Value::Object(map) = v else {
+        return Err(InputError::new(
+            file,
+            base,
+            format!("expected an object with a `{tag}`, found {}", json_kind(v)),
+        ));
+    };
+    let kind = match map.get(tag) {
+        Some(Value::String(k)) => k.clone(),
+        Some(other) => {
+            return Err(InputError::new(
+                file,
+                at(tag),
+                format!(
+                    "must be a string naming the type, found {}",
+                    json_kind(other)
+                ),
+            ));
+        }
+        None => return Err(InputError::new(file, at(tag), "missing field")),
+    };
+    let mut rest = map.clone();
+    rest.remove(tag);
+    let mut outer = serde_json::Map::new();
+    outer.insert(kind, Value::Object(rest));
+    serde_path_to_error::deserialize(Value::Object(outer)).map_err(|e| {
+        // The path's first segment is the variant (the tag's value): drop it. An error at the
+        // top is the tag's (an unknown type), one at the variant is its object's (a missing or
+        // unknown field).
+        let p = e.path().to_string();
+        let inner = e.into_inner().to_string();
+        let path = match p.split_once('.') {
+            _ if p == "." => at(tag),
+            Some((_, rest)) => at(rest),
+            None => base.to_string(),
+        };
+        InputError::new(file, path, inner)
     })
+}
+
+/// What a JSON value is, for messages.
+fn json_kind(v: &serde_json::Value) -> &'static str {
+    use serde_json::Value;
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
 }
 
 /// Deserialize `T` from a JSON value found at `base` within `file`.

@@ -98,7 +98,8 @@ pub enum FovAxis {
 
 /// A material, by its `type`; spectra are left as JSON values for `spectra.rs`.
 #[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+// Written `{"type": "<kind>", …}`, read with `from_tagged_value` (field paths kept).
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MaterialDesc {
     Lambert {
         reflectance: Value,
@@ -133,7 +134,8 @@ pub enum MaterialDesc {
 /// A participating medium, by its `type`; spectra, the phase function and the fluorophore are
 /// left as JSON values (serde loses the JSON path of errors inside an internally tagged enum).
 #[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+// Written `{"type": "<kind>", …}`, read with `from_tagged_value` (field paths kept).
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MediumDesc {
     Homogeneous {
         sigma_a: Value,
@@ -163,14 +165,12 @@ pub enum MediumDesc {
 }
 
 /// The phase function of a medium.
-#[derive(Deserialize, Default)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+#[derive(Deserialize)]
+// Written `{"type": "<kind>", …}`, read with `from_tagged_value` (field paths kept).
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum PhaseDesc {
-    #[default]
-    Isotropic,
-    HenyeyGreenstein {
-        g: f32,
-    },
+    Isotropic {},
+    HenyeyGreenstein { g: f32 },
 }
 
 /// The fluorophore of a medium: absorption a(λ) at a concentration (extinction per scene

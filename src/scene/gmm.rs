@@ -50,8 +50,8 @@ pub fn load(
                 }
             }
             let full = dir.join(file);
-            let text = std::fs::read_to_string(&full)
-                .map_err(|e| err("file", format!("cannot read '{}': {e}", full.display())))?;
+            let text = crate::io::input::read_text(&full, crate::io::input::GMM_MODEL)
+                .map_err(|e| err("file", e))?;
             GmmFile::parse(&text).map_err(|m| {
                 err(
                     "file",
@@ -61,8 +61,8 @@ pub fn load(
         }
         (None, Some(bfc)) => {
             let full = dir.join(bfc);
-            let bytes = std::fs::read(&full)
-                .map_err(|e| err("bfc", format!("cannot read '{}': {e}", full.display())))?;
+            let bytes = crate::io::input::read_bytes(&full, crate::io::input::BFC)
+                .map_err(|e| err("bfc", e))?;
             let m = std::str::from_utf8(&bytes)
                 .map_err(|e| e.to_string())
                 .and_then(BfcMatrix::parse)
@@ -128,7 +128,7 @@ fn fitted(
     let key = sha256_hex(format!("{hash}{}", serde_json::to_string(opt).unwrap()).as_bytes());
     let path = cache_dir().map(|d| d.join(format!("{}.json", &key[..32])));
     if let Some(p) = &path
-        && let Ok(text) = std::fs::read_to_string(p)
+        && let Ok(text) = crate::io::input::read_text(p, crate::io::input::GMM_MODEL)
     {
         match GmmFile::parse(&text) {
             Ok(f) if f.source.sha256 == hash && f.fit.options == *opt => return Ok(f),

@@ -6,7 +6,7 @@
 //! it unchanged; a shape with no material and no emission is an index-matched boundary:
 //! invisible, and not a bounce.
 
-use super::error::from_json_value;
+use super::error::{from_json_value, from_tagged_value};
 use super::format::{FluorescenceDesc, MediumDesc, PhaseDesc, ShapeDesc};
 use super::limits::{MAX_COORD, MAX_OPTICAL_DEPTH};
 use super::spectra::SpectrumContext;
@@ -47,7 +47,7 @@ pub fn media(
     let mut names = Vec::new();
     for (name, v) in descs {
         let base = format!("media.{name}");
-        let desc: MediumDesc = from_json_value(ctx.file, &base, v)?;
+        let desc: MediumDesc = from_tagged_value(ctx.file, &base, "type", v)?;
         media.push(medium(ctx, &base, desc, warnings)?);
         names.push(name.clone());
     }
@@ -102,8 +102,8 @@ fn medium(
         }
     };
     let phase: PhaseDesc = match phase {
-        None => PhaseDesc::Isotropic,
-        Some(v) => from_json_value(ctx.file, &format!("{base}.phase"), &v)?,
+        None => PhaseDesc::Isotropic {},
+        Some(v) => from_tagged_value(ctx.file, &format!("{base}.phase"), "type", &v)?,
     };
     let fluorescence: Option<FluorescenceDesc> = match fluorescence {
         None => None,
@@ -122,7 +122,7 @@ fn medium(
         )?),
     };
     let g = match phase {
-        PhaseDesc::Isotropic => 0.0,
+        PhaseDesc::Isotropic {} => 0.0,
         PhaseDesc::HenyeyGreenstein { g } => {
             if !(g > -1.0 && g < 1.0) {
                 return Err(InputError::new(

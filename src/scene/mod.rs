@@ -88,8 +88,8 @@ pub struct Scene {
 impl Scene {
     /// Load and validate a scene file.
     pub fn load(path: &Path) -> Result<Scene, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::new(path, "", format!("cannot read the scene file: {e}")))?;
+        let text = crate::io::input::read_text(path, crate::io::input::SCENE)
+            .map_err(|e| InputError::new(path, "", format!("cannot read the scene: {e}")))?;
         Self::from_str(path, &text)
     }
 

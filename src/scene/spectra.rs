@@ -1,6 +1,6 @@
 //! Spectrum descriptions in scene files: numbers, names, and typed objects.
 
-use super::error::{InputError, from_json_value};
+use super::error::{InputError, from_tagged_value};
 use crate::spectrum::{Domain, Spectrum};
 use serde::Deserialize;
 use serde_json::Value;
@@ -8,7 +8,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 #[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+// Written `{"type": "<kind>", …}`, read with `from_tagged_value` (field paths kept).
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
 enum SpectrumDesc {
     Constant {
         value: f32,
@@ -108,74 +109,78 @@ impl SpectrumContext<'_> {
                     self.named.keys().cloned().collect::<Vec<_>>().join(", ")
                 ))
             })?,
-            Value::Object(_) => match from_json_value::<SpectrumDesc>(self.file, path, v)? {
-                SpectrumDesc::Constant { value } => Spectrum::Constant(value),
-                SpectrumDesc::Box { lo, hi, value } => {
-                    if !(lo < hi) {
-                        return Err(err(format!(
-                            "box spectrum needs lo < hi, got lo = {lo}, hi = {hi}"
-                        )));
-                    }
-                    Spectrum::Box { lo, hi, value }
-                }
-                SpectrumDesc::Gaussian { center, fwhm, peak } => {
-                    if !(fwhm > 0.0) || !center.is_finite() {
-                        return Err(err(format!("gaussian spectrum needs fwhm > 0, got {fwhm}")));
-                    }
-                    Spectrum::gaussian_fwhm(center, fwhm, peak)
-                }
-                SpectrumDesc::Tabulated { pairs, file, scale } => {
-                    let (xs, ys) = match (pairs, file) {
-                        (Some(p), None) => p.into_iter().map(|[a, b]| (a, b)).unzip(),
-                        (None, Some(f)) => {
-                            let full = self.dir.join(&f);
-                            let text = std::fs::read_to_string(&full).map_err(|e| {
-                                InputError::new(
-                                    self.file,
-                                    format!("{path}.file"),
-                                    format!("cannot read '{}': {e}", full.display()),
-                                )
-                            })?;
-                            parse_csv(&text).map_err(|m| {
-                                InputError::new(
-                                    self.file,
-                                    format!("{path}.file"),
-                                    format!("malformed CSV '{}': {m}", full.display()),
-                                )
-                            })?
+            Value::Object(_) => {
+                match from_tagged_value::<SpectrumDesc>(self.file, path, "type", v)? {
+                    SpectrumDesc::Constant { value } => Spectrum::Constant(value),
+                    SpectrumDesc::Box { lo, hi, value } => {
+                        if !(lo < hi) {
+                            return Err(err(format!(
+                                "box spectrum needs lo < hi, got lo = {lo}, hi = {hi}"
+                            )));
                         }
-                        _ => {
-                            return Err(err(
-                                "a tabulated spectrum needs exactly one of `pairs` or `file`"
-                                    .into(),
+                        Spectrum::Box { lo, hi, value }
+                    }
+                    SpectrumDesc::Gaussian { center, fwhm, peak } => {
+                        if !(fwhm > 0.0) || !center.is_finite() {
+                            return Err(err(format!(
+                                "gaussian spectrum needs fwhm > 0, got {fwhm}"
+                            )));
+                        }
+                        Spectrum::gaussian_fwhm(center, fwhm, peak)
+                    }
+                    SpectrumDesc::Tabulated { pairs, file, scale } => {
+                        let (xs, ys) = match (pairs, file) {
+                            (Some(p), None) => p.into_iter().map(|[a, b]| (a, b)).unzip(),
+                            (None, Some(f)) => {
+                                let full = self.dir.join(&f);
+                                let text = crate::io::input::read_text(
+                                    &full,
+                                    crate::io::input::SPECTRUM_CSV,
+                                )
+                                .map_err(|e| {
+                                    InputError::new(self.file, format!("{path}.file"), e)
+                                })?;
+                                parse_csv(&text).map_err(|m| {
+                                    InputError::new(
+                                        self.file,
+                                        format!("{path}.file"),
+                                        format!("malformed CSV '{}': {m}", full.display()),
+                                    )
+                                })?
+                            }
+                            _ => {
+                                return Err(err(
+                                    "a tabulated spectrum needs exactly one of `pairs` or `file`"
+                                        .into(),
+                                ));
+                            }
+                        };
+                        check_increasing(&xs).map_err(err)?;
+                        let k = scale.unwrap_or(1.0);
+                        let ys: Vec<f32> = ys.into_iter().map(|y: f32| y * k).collect();
+                        if !(k.is_finite() && k >= 0.0) || ys.iter().any(|y| !y.is_finite()) {
+                            return Err(InputError::new(
+                                self.file,
+                                format!("{path}.scale"),
+                                format!(
+                                    "must be finite and non-negative, with every value × scale \
+                                 finite in f32; got scale {k}"
+                                ),
                             ));
                         }
-                    };
-                    check_increasing(&xs).map_err(err)?;
-                    let k = scale.unwrap_or(1.0);
-                    let ys: Vec<f32> = ys.into_iter().map(|y: f32| y * k).collect();
-                    if !(k.is_finite() && k >= 0.0) || ys.iter().any(|y| !y.is_finite()) {
-                        return Err(InputError::new(
-                            self.file,
-                            format!("{path}.scale"),
-                            format!(
-                                "must be finite and non-negative, with every value × scale \
-                                 finite in f32; got scale {k}"
-                            ),
-                        ));
+                        Spectrum::Tabulated { xs, ys }
                     }
-                    Spectrum::Tabulated { xs, ys }
-                }
-                SpectrumDesc::Binned { lo, width, values } => {
-                    if !(width > 0.0) || values.is_empty() {
-                        return Err(err(
-                            "a binned spectrum needs width > 0 and at least one value".into(),
-                        ));
+                    SpectrumDesc::Binned { lo, width, values } => {
+                        if !(width > 0.0) || values.is_empty() {
+                            return Err(err(
+                                "a binned spectrum needs width > 0 and at least one value".into(),
+                            ));
+                        }
+                        Spectrum::Binned { lo, width, values }
                     }
-                    Spectrum::Binned { lo, width, values }
+                    SpectrumDesc::Colorchecker { patch } => colorchecker(patch).map_err(err)?,
                 }
-                SpectrumDesc::Colorchecker { patch } => colorchecker(patch).map_err(err)?,
-            },
+            }
             _ => {
                 return Err(err(
                     "expected a spectrum: a number, a spectrum name or an object with a `type`"

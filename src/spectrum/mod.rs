@@ -5,6 +5,7 @@ pub mod bins;
 pub mod cie;
 pub mod colorimetry;
 pub mod hero;
+pub mod illuminants;
 pub mod lanes;
 pub mod normal;
 pub mod sampling;

@@ -28,10 +28,16 @@ pub enum Kind {
     Exr,
     GmmModel,
     Obj,
+    /// An input that is a FIFO, a device or a folder (tests/fuzz/special.rs).
+    Special,
+    /// Outputs onto devices, FIFOs, folders, links, long and non-ASCII names.
+    Output,
+    /// A finished planned run with its links or files edited by hand.
+    RunFolder,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 9] = [
+    pub const ALL: [Kind; 12] = [
         Kind::Scene,
         Kind::Config,
         Kind::Csv,
@@ -41,6 +47,9 @@ impl Kind {
         Kind::Exr,
         Kind::GmmModel,
         Kind::Obj,
+        Kind::Special,
+        Kind::Output,
+        Kind::RunFolder,
     ];
 
     pub fn name(self) -> &'static str {
@@ -54,21 +63,27 @@ impl Kind {
             Kind::Exr => "exr",
             Kind::GmmModel => "gmm-model",
             Kind::Obj => "obj",
+            Kind::Special => "special-file",
+            Kind::Output => "output",
+            Kind::RunFolder => "run-folder",
         }
     }
 
     /// Share of the cases (out of 100). Configs cost the most per case.
     fn weight(self) -> u32 {
         match self {
-            Kind::Scene => 28,
+            Kind::Scene => 23,
             Kind::Config => 10,
-            Kind::Csv => 8,
-            Kind::Bfc => 13,
-            Kind::Vol => 8,
-            Kind::RunRecord => 13,
-            Kind::Exr => 8,
-            Kind::GmmModel => 7,
-            Kind::Obj => 5,
+            Kind::Csv => 7,
+            Kind::Bfc => 10,
+            Kind::Vol => 7,
+            Kind::RunRecord => 11,
+            Kind::Exr => 7,
+            Kind::GmmModel => 6,
+            Kind::Obj => 4,
+            Kind::Special => 5,
+            Kind::Output => 4,
+            Kind::RunFolder => 6,
         }
     }
 }
@@ -99,6 +114,9 @@ pub struct Case {
     pub dir: PathBuf,
     pub args: Vec<String>,
     pub check: Check,
+    /// Paths that the run must leave as they were, whatever its exit code, with their
+    /// fingerprints before it (tests/fuzz/special.rs).
+    pub guards: Vec<(PathBuf, String)>,
 }
 
 pub struct Base {
@@ -116,6 +134,9 @@ pub struct Base {
     pub gmm_models: Vec<PathBuf>,
     /// Strings worth trying wherever a string is: other data files, odd paths.
     pub strings: Vec<String>,
+    /// A finished planned run (every job done, not collected): the folder holding its results
+    /// root `results/`, and the run folder relative to that folder.
+    pub planned: Option<(PathBuf, PathBuf)>,
 }
 
 impl Base {
@@ -179,6 +200,7 @@ impl Base {
             runs: Vec::new(),
             gmm_models: Vec::new(),
             strings,
+            planned: None,
         }
     }
 
@@ -227,6 +249,9 @@ impl Base {
             Kind::Exr => self.exr_case(rng, n, dir),
             Kind::GmmModel => self.gmm_case(rng, n, dir),
             Kind::Obj => self.obj_case(rng, n, dir),
+            Kind::Special => self.special_case(rng, dir),
+            Kind::Output => self.output_case(rng, dir),
+            Kind::RunFolder => self.run_folder_case(rng, n, dir),
         };
         c.index = index;
         c
@@ -257,7 +282,7 @@ impl Base {
 
     /// Mutate `doc` (as JSON, or as text one time in six), apply `fix` (the tiny-render limits)
     /// when the result still parses, and write it to `path`.
-    fn mutate_json_file(
+    pub fn mutate_json_file(
         &self,
         rng: &mut Pcg64,
         doc: &Json,
@@ -266,6 +291,23 @@ impl Base {
         fix: impl Fn(&mut Json),
     ) -> String {
         let mut doc = doc.clone();
+        if rng.random_bool(1.0 / 16.0) {
+            // Data after the document: stokes must not stop reading at its end.
+            let tail = *[
+                "\0",
+                "\0\0\0\0",
+                "x",
+                "\n{}",
+                "]}",
+                "\n# comment",
+                "\u{feff}",
+                "\n\n1",
+            ]
+            .choose(rng)
+            .unwrap();
+            std::fs::write(path, format!("{}{tail}", doc.to_text())).unwrap();
+            return format!("text: trailing {tail:?}");
+        }
         if rng.random_bool(1.0 / 6.0) {
             let mut bytes = doc.to_text().into_bytes();
             let d = mutate::text(rng, &mut bytes, n, 0);
@@ -562,7 +604,7 @@ f 8//4 7//4 3//4 4//4\nf 1 5 8 4\nf 2 3 7\nf 2 7 6\n";
 
 const CUBE_MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\n";
 
-fn plain_case(dir: &Path, args: Vec<String>) -> Case {
+pub fn plain_case(dir: &Path, args: Vec<String>) -> Case {
     Case {
         index: 0,
         kind: Kind::Scene,
@@ -571,12 +613,13 @@ fn plain_case(dir: &Path, args: Vec<String>) -> Case {
         dir: dir.to_path_buf(),
         args,
         check: Check::Nothing,
+        guards: Vec::new(),
     }
 }
 
 /// `stokes render` of a scene at 1–4 spp with one thread, a random integrator and random (valid)
 /// integrator options.
-fn render_case(rng: &mut Pcg64, dir: &Path, scene: &Path) -> Case {
+pub fn render_case(rng: &mut Pcg64, dir: &Path, scene: &Path) -> Case {
     let integrator = *[
         "pt-mono",
         "pt-hero",
@@ -629,7 +672,7 @@ fn render_case(rng: &mut Pcg64, dir: &Path, scene: &Path) -> Case {
     c
 }
 
-fn experiment_case(dir: &Path, config: &Path) -> Case {
+pub fn experiment_case(dir: &Path, config: &Path) -> Case {
     let out = dir.join("out");
     let mut c = plain_case(
         dir,
@@ -650,13 +693,13 @@ pub fn s(p: &Path) -> String {
     p.display().to_string()
 }
 
-fn ext(p: &Path) -> String {
+pub fn ext(p: &Path) -> String {
     p.extension()
         .map(|e| e.to_string_lossy().to_string())
         .unwrap_or_default()
 }
 
-fn rel(base: &Path, p: &Path) -> String {
+pub fn rel(base: &Path, p: &Path) -> String {
     p.strip_prefix(base).unwrap_or(p).display().to_string()
 }
 
@@ -679,13 +722,31 @@ pub fn walk(dir: &Path) -> Vec<PathBuf> {
     let mut entries: Vec<PathBuf> = rd.map(|e| e.unwrap().path()).collect();
     entries.sort();
     for p in entries {
-        if p.is_dir() {
+        // links are not followed (a case may link a run's folder elsewhere)
+        if std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_dir()) {
             out.extend(walk(&p));
         } else {
             out.push(p);
         }
     }
     out
+}
+
+/// Copy a folder and everything in it (links copied as links).
+pub fn copy_tree(src: &Path, dst: &Path) {
+    std::fs::create_dir_all(dst).unwrap();
+    for e in std::fs::read_dir(src).unwrap() {
+        let e = e.unwrap();
+        let (p, t) = (e.path(), dst.join(e.file_name()));
+        let ft = e.file_type().unwrap();
+        if ft.is_dir() {
+            copy_tree(&p, &t);
+        } else if ft.is_symlink() {
+            std::os::unix::fs::symlink(std::fs::read_link(&p).unwrap(), &t).unwrap();
+        } else {
+            std::fs::copy(&p, &t).unwrap();
+        }
+    }
 }
 
 /// Copy a run folder without its `figures/` (outputs, not inputs).
@@ -888,7 +949,7 @@ fn small_config(
 }
 
 /// The string values (file paths) of a document that end in `.ext`.
-fn file_strings(doc: &Json, ext: &str) -> Vec<String> {
+pub fn file_strings(doc: &Json, ext: &str) -> Vec<String> {
     let mut out = Vec::new();
     match doc {
         Json::Str(s) if s.ends_with(&format!(".{ext}")) => out.push(s.clone()),
@@ -899,7 +960,7 @@ fn file_strings(doc: &Json, ext: &str) -> Vec<String> {
     out
 }
 
-fn has_key_with_ext(doc: &Json, key: &str, ext: &str) -> bool {
+pub fn has_key_with_ext(doc: &Json, key: &str, ext: &str) -> bool {
     match doc {
         Json::Arr(a) => a.iter().any(|v| has_key_with_ext(v, key, ext)),
         Json::Obj(m) => m.iter().any(|(k, v)| {
@@ -912,7 +973,13 @@ fn has_key_with_ext(doc: &Json, key: &str, ext: &str) -> bool {
 
 /// Write `scene` to `out` with one of its `.ext` file references (chosen at random) pointing at
 /// `mutant`.
-fn replace_one_file(rng: &mut Pcg64, scene: &Json, ext: &str, mutant: &Path, out: &Path) -> String {
+pub fn replace_one_file(
+    rng: &mut Pcg64,
+    scene: &Json,
+    ext: &str,
+    mutant: &Path,
+    out: &Path,
+) -> String {
     let mut doc = scene.clone();
     let candidates: Vec<Vec<super::json::Step>> = doc
         .paths()

@@ -22,10 +22,14 @@ use std::path::{Path, PathBuf};
 
 /// Collect the planned run in `run_dir`. Returns the run folder.
 pub fn collect(run_dir: &Path) -> Result<PathBuf, Error> {
-    let (plan, jobs) = read_plan(run_dir)?;
-    let run_dir = std::fs::canonicalize(run_dir).unwrap_or(run_dir.to_path_buf());
-    let records = finished_jobs(&run_dir, &jobs)?;
-    let setup = Setup::load(&plan.config_file, plan.root.as_deref(), plan.quick)?;
+    let run = read_plan(run_dir)?;
+    let (plan, jobs, run_dir) = (&run.plan, &run.jobs, run.dir.clone());
+    let records = finished_jobs(&run_dir, jobs)?;
+    let setup = Setup::load(&plan.config_file, run.root.as_deref(), plan.quick)?;
+    if run.root.is_some() {
+        // `<name>/latest` and the reference cache: no link, FIFO or device on the way
+        setup.check_writable()?;
+    }
     if inputs_hash(&setup)? != plan.inputs_hash {
         return Err(Error::input(format!(
             "the config '{}' or its scene changed since the run was planned: its jobs rendered another experiment",
@@ -39,8 +43,9 @@ pub fn collect(run_dir: &Path) -> Result<PathBuf, Error> {
     let done: Vec<(&Job, &JobRecord)> = jobs.iter().zip(&records).collect();
     write_timings(&run_dir, &done)?;
     let c = Collect {
-        plan: &plan,
+        plan,
         run_dir: &run_dir,
+        cache_reference: run.root.is_some(),
     };
     match &setup.cfg.sweep {
         None => {
@@ -72,7 +77,7 @@ pub fn collect(run_dir: &Path) -> Result<PathBuf, Error> {
         }
     }
     mark_complete(&run_dir)?;
-    if let (Some(root), Some(name)) = (&plan.root, &plan.run_name) {
+    if let (Some(root), Some(name)) = (&run.root, &plan.run_name) {
         write_text(
             &root.join(&plan.name).join("latest"),
             &format!("runs/{name}\n"),
@@ -189,6 +194,8 @@ fn write_timings(run_dir: &Path, done: &[(&Job, &JobRecord)]) -> Result<(), Erro
 struct Collect<'a> {
     plan: &'a Plan,
     run_dir: &'a Path,
+    /// Whether the run lies in a results root, whose reference cache takes the merged shards.
+    cache_reference: bool,
 }
 
 impl Collect<'_> {
@@ -305,7 +312,7 @@ impl Collect<'_> {
             )));
         }
         let img = merged.film().rgb();
-        if self.plan.root.is_some()
+        if self.cache_reference
             && let Some(r) = &s.cfg.reference
         {
             write_exr(&reference::cache_file(s, r), s.width, s.height, &img)

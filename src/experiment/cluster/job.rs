@@ -9,7 +9,7 @@ use super::super::reference;
 use super::super::setup::Setup;
 use super::super::sweep;
 use super::super::variants::{Runs, SnapshotStat};
-use super::plan::{Job, Plan, Work, inputs_hash, mode_budgets, read_plan};
+use super::plan::{Job, Plan, PlannedRun, Work, inputs_hash, mode_budgets, read_plan};
 use crate::error::Error;
 use crate::integrator::with_threads;
 use indicatif::ProgressBar;
@@ -79,7 +79,8 @@ pub fn job_index(index: Option<usize>) -> Result<usize, Error> {
 /// this job, and every file it lists present.
 pub fn finished(run_dir: &Path, j: &Job) -> Option<JobRecord> {
     let dir = run_dir.join(&j.output);
-    let text = std::fs::read_to_string(dir.join(DONE_FILE)).ok()?;
+    let text =
+        crate::io::input::read_text(&dir.join(DONE_FILE), crate::io::input::RUN_RECORD).ok()?;
     let r: JobRecord = serde_json::from_str(&text).ok()?;
     (r.index == j.index
         && r.files
@@ -90,31 +91,33 @@ pub fn finished(run_dir: &Path, j: &Job) -> Option<JobRecord> {
 
 /// The failure record of job `j`, when its last run failed.
 pub fn failure(run_dir: &Path, j: &Job) -> Option<JobFailure> {
-    let text = std::fs::read_to_string(run_dir.join(&j.output).join(FAILED_FILE)).ok()?;
+    let p = run_dir.join(&j.output).join(FAILED_FILE);
+    let text = crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).ok()?;
     serde_json::from_str(&text).ok()
 }
 
 /// Run job `index` of the planned run in `run_dir` (skipped when it already finished).
 pub fn run_job(run_dir: &Path, index: usize) -> Result<(), Error> {
-    let (plan, jobs) = read_plan(run_dir)?;
-    let j = jobs.get(index).ok_or_else(|| {
+    let run = read_plan(run_dir)?;
+    let j = run.jobs.get(index).ok_or_else(|| {
         Error::input(format!(
             "job {index}: '{}' plans jobs 0–{}",
             run_dir.display(),
-            jobs.len() - 1
+            run.jobs.len() - 1
         ))
     })?;
-    run_planned(run_dir, &plan, j)
+    run_planned(&run, j)
 }
 
 /// Run every job of the planned run in `run_dir` that has not finished, one after the other.
 /// Failures are reported together at the end.
 pub fn run_all(run_dir: &Path) -> Result<(), Error> {
-    let (plan, jobs) = read_plan(run_dir)?;
+    let run = read_plan(run_dir)?;
+    let jobs = &run.jobs;
     let mut failed = Vec::new();
     let mut kind = crate::error::ErrorKind::Input;
-    for j in &jobs {
-        if let Err(e) = run_planned(run_dir, &plan, j) {
+    for j in jobs {
+        if let Err(e) = run_planned(&run, j) {
             eprintln!("job {} failed: {}", j.index, e.message);
             failed.push(j.index);
             // Exit 2 only when every failure was bad input, as for one job.
@@ -137,7 +140,8 @@ pub fn run_all(run_dir: &Path) -> Result<(), Error> {
     })
 }
 
-fn run_planned(run_dir: &Path, plan: &Plan, j: &Job) -> Result<(), Error> {
+fn run_planned(run: &PlannedRun, j: &Job) -> Result<(), Error> {
+    let (run_dir, plan) = (run.dir.as_path(), &run.plan);
     if let Some(r) = finished(run_dir, j) {
         eprintln!(
             "job {} ({}) already finished on {} in {:.2} s: skipped",
@@ -154,9 +158,23 @@ fn run_planned(run_dir: &Path, plan: &Plan, j: &Job) -> Result<(), Error> {
     eprintln!("job {} ({}) on {}", j.index, j.describe(), host());
     let started = timestamp();
     let t0 = Instant::now();
-    let result = setup_for(plan, j).and_then(|s| {
-        let threads = s.cfg.threads.unwrap_or_else(rayon::current_num_threads);
-        render(&s, j, &dir).map(|out| (out, threads))
+    let work = || {
+        setup_for(plan, j).and_then(|s| {
+            check_work(&s, plan, j)?;
+            let threads = s.cfg.threads.unwrap_or_else(rayon::current_num_threads);
+            render(&s, j, &dir).map(|out| (out, threads))
+        })
+    };
+    // A panic (a bug) still leaves failed.json, so that collect names the job and the cause.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)).unwrap_or_else(|p| {
+        let what = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Err(Error::runtime(format!(
+            "the job panicked (a bug in stokes): {what}"
+        )))
     });
     match result {
         Ok(((files, snapshots), threads)) => {
@@ -224,6 +242,40 @@ fn setup_for(plan: &Plan, j: &Job) -> Result<Setup, Error> {
                 ))
             }),
     }
+}
+
+/// The job's work is what the config (unchanged since planning) asks for: a reference shard is
+/// one of the plan's shards of the config's reference, a variant's budgets are the config's. A
+/// hand-edited `jobs.jsonl` cannot make a job render more than the experiment does.
+fn check_work(s: &Setup, plan: &Plan, j: &Job) -> Result<(), Error> {
+    let bad = |m: String| {
+        Error::input(format!(
+            "job {}: field `work` of its line in jobs.jsonl: {m}; plan the run again",
+            j.index
+        ))
+    };
+    match &j.work {
+        Work::ReferenceShard { samples: [a, b] } => {
+            let spp = s.cfg.reference.as_ref().and_then(|r| r.spp).unwrap_or(0);
+            let k = plan.shard_spp;
+            if *b > spp || a % k != 0 || *b != (a + k).min(spp) {
+                return Err(bad(format!(
+                    "samples {a}..{b} are not a shard of the reference's {spp} samples in shards of {k}"
+                )));
+            }
+        }
+        Work::Variant { mode, budgets, .. } => {
+            let planned = s.modes.iter().find(|m| m.mode == *mode);
+            if planned.is_none_or(|m| m.budgets != *budgets) {
+                return Err(bad(format!(
+                    "the {} budgets {budgets:?} are not the config's",
+                    mode.name()
+                )));
+            }
+        }
+        Work::GridCell { .. } => {}
+    }
+    Ok(())
 }
 
 /// Render the job's work into `dir`: its files (relative to `dir`) and snapshot measurements.

@@ -2,7 +2,7 @@
 //! per line), written by `stokes experiment CONFIG --plan` and read back, as untrusted input, by
 //! every job and by the collect step.
 
-use super::super::config::{BudgetMode, Config};
+use super::super::config::{BudgetMode, Config, MAX_SECONDS, MAX_SPP};
 use super::super::record::{
     ModeBudgets, mark_incomplete, mkdir, new_run_dir, timestamp, write_text,
 };
@@ -24,6 +24,8 @@ pub const JOBS_FILE: &str = "jobs.jsonl";
 pub const MAX_JOBS: usize = 1 << 20;
 /// Most shards a reference may be split into.
 pub const MAX_SHARDS: u32 = 4096;
+/// Most budgets of one mode a job may list.
+const MAX_BUDGETS: usize = 4096;
 
 /// What a planned run is: `plan.json`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -110,17 +112,14 @@ impl Job {
 /// Hash of what a plan depends on: the text of the config, its scene and the variants' own
 /// scenes (not of the data files they name).
 pub fn inputs_hash(s: &Setup) -> Result<String, Error> {
-    let read = |p: &Path| {
-        std::fs::read_to_string(p)
-            .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))
-    };
-    let mut text = read(&s.config_path)?;
+    let read = |p: &Path, kind| crate::io::input::read_text(p, kind).map_err(Error::input);
+    let mut text = read(&s.config_path, crate::io::input::CONFIG)?;
     text.push('\0');
     text += &s.scene_text;
     for i in 0..s.cfg.variants.len() {
         if let Some(p) = s.cfg.variant_scene_path(&s.config_path, i) {
             text.push('\0');
-            text += &read(&p)?;
+            text += &read(&p, crate::io::input::SCENE)?;
         }
     }
     Ok(crate::film::shard::scene_hash(&text))
@@ -218,7 +217,7 @@ fn empty_run_dir(d: &Path) -> Result<PathBuf, Error> {
     } else {
         std::fs::create_dir_all(d).map_err(|e| bad(format!("cannot create the folder: {e}")))?;
     }
-    crate::film::output::probe_writable(&d.join("probe")).map_err(bad)?;
+    crate::io::output::check_folder(d).map_err(bad)?;
     Ok(d.to_path_buf())
 }
 
@@ -341,9 +340,24 @@ pub fn job_dir_name(index: usize) -> String {
     format!("jobs/{index:05}")
 }
 
-/// Read and check the plan of the run folder `dir`: `plan.json` and `jobs.jsonl`. Errors name
-/// the file, the line and the field.
-pub fn read_plan(dir: &Path) -> Result<(Plan, Vec<Job>), Error> {
+/// A planned run folder, read and checked as untrusted input ([`read_plan`]).
+#[derive(Clone, Debug)]
+pub struct PlannedRun {
+    /// The run folder, canonical.
+    pub dir: PathBuf,
+    pub plan: Plan,
+    pub jobs: Vec<Job>,
+    /// The results root the run folder lies in (`<root>/<name>/runs/<run_name>`), when it was
+    /// planned in one: the merged reference is cached there and `<name>/latest` points at the run.
+    pub root: Option<PathBuf>,
+}
+
+/// Read and check the planned run folder `dir`: the folder holds only folders and regular files
+/// (no link could take a write outside it), `plan.json` and `jobs.jsonl` are well-formed, their
+/// names and numbers within the bounds the command line has, and a run planned in a results
+/// root still lies at `<root>/<name>/runs/<run_name>`. Errors name the file, the line and the
+/// field.
+pub fn read_plan(dir: &Path) -> Result<PlannedRun, Error> {
     if !dir.is_dir() {
         return Err(Error::input(format!(
             "run folder '{}' does not exist (plan one with `stokes experiment CONFIG --plan --out {}`)",
@@ -351,35 +365,69 @@ pub fn read_plan(dir: &Path) -> Result<(Plan, Vec<Job>), Error> {
             dir.display()
         )));
     }
+    let dir = std::fs::canonicalize(dir)
+        .map_err(|e| Error::input(format!("run folder '{}': {e}", dir.display())))?;
+    crate::io::tree::check_run_folder(&dir).map_err(Error::input)?;
     let pf = dir.join(PLAN_FILE);
-    let text = std::fs::read_to_string(&pf).map_err(|e| {
+    let text = crate::io::input::read_text(&pf, crate::io::input::RUN_RECORD).map_err(|e| {
         Error::input(format!(
-            "cannot read '{}': {e} (is '{}' a run folder planned with `stokes experiment CONFIG --plan`?)",
-            pf.display(),
+            "{e} (is '{}' a run folder planned with `stokes experiment CONFIG --plan`?)",
             dir.display()
         ))
     })?;
     let plan: Plan = crate::scene::error::from_json_str(&pf, &text)?;
+    let bad =
+        |field: &str, m: String| Error::input(format!("{}: field `{field}`: {m}", pf.display()));
     if plan.format != FORMAT {
-        return Err(Error::input(format!(
-            "{}: field `format`: '{}' is not '{FORMAT}'",
-            pf.display(),
-            plan.format
-        )));
+        return Err(bad(
+            "format",
+            format!("'{}' is not '{FORMAT}'", plan.format),
+        ));
     }
     if plan.jobs == 0 || plan.jobs > MAX_JOBS {
-        return Err(Error::input(format!(
-            "{}: field `jobs`: must be 1–{MAX_JOBS}, got {}",
-            pf.display(),
-            plan.jobs
-        )));
+        return Err(bad(
+            "jobs",
+            format!("must be 1–{MAX_JOBS}, got {}", plan.jobs),
+        ));
     }
+    if !(1..=MAX_SPP).contains(&plan.shard_spp) {
+        return Err(bad(
+            "shard_spp",
+            format!("must be 1–{MAX_SPP}, got {}", plan.shard_spp),
+        ));
+    }
+    if !super::super::config::name_ok(&plan.name) {
+        return Err(bad(
+            "name",
+            format!(
+                "{:?} is not an experiment name (letters, digits, '-', '_', '.', '+')",
+                plan.name
+            ),
+        ));
+    }
+    if !plan.config_file.is_absolute() {
+        return Err(bad(
+            "config_file",
+            format!(
+                "'{}' is not an absolute path (the planner writes the config's absolute path)",
+                plan.config_file.display()
+            ),
+        ));
+    }
+    let root = results_root(&dir, &plan, &bad)?;
     let jf = dir.join(JOBS_FILE);
-    let text = std::fs::read_to_string(&jf)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", jf.display())))?;
+    let text =
+        crate::io::input::read_text(&jf, crate::io::input::RUN_TABLE).map_err(Error::input)?;
     let mut jobs = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let what = format!("{}: line {}", jf.display(), n + 1);
+        if jobs.len() == plan.jobs {
+            return Err(Error::input(format!(
+                "{what}: more jobs than '{}' says (`jobs` = {})",
+                pf.display(),
+                plan.jobs
+            )));
+        }
         let job: Job = crate::scene::error::from_json_str(Path::new(&what), line)?;
         check_job(&job, jobs.len(), &what)?;
         jobs.push(job);
@@ -393,11 +441,69 @@ pub fn read_plan(dir: &Path) -> Result<(Plan, Vec<Job>), Error> {
             plan.jobs
         )));
     }
-    Ok((plan, jobs))
+    Ok(PlannedRun {
+        dir,
+        plan,
+        jobs,
+        root,
+    })
+}
+
+/// The results root of the run folder `dir` (canonical) when `plan` says it was planned in one:
+/// the folder three levels up, after checking that `dir` is `<root>/<name>/runs/<run_name>`.
+/// The root is where the run folder lies, not the `root` the plan names: a run folder copied to
+/// another machine writes into the root it was copied into, and an edited `root` cannot send a
+/// write elsewhere.
+fn results_root(
+    dir: &Path,
+    plan: &Plan,
+    bad: &dyn Fn(&str, String) -> Error,
+) -> Result<Option<PathBuf>, Error> {
+    let (planned, run_name) = match (&plan.root, &plan.run_name) {
+        (None, None) => return Ok(None),
+        (Some(r), Some(n)) => (r, n),
+        _ => {
+            return Err(bad(
+                "root",
+                "`root` and `run_name` go together: give both or neither".into(),
+            ));
+        }
+    };
+    if !crate::io::tree::plain_name(run_name) {
+        return Err(bad(
+            "run_name",
+            format!("{run_name:?} is not a folder name"),
+        ));
+    }
+    let name_of = |p: Option<&Path>| p.and_then(Path::file_name).map(|n| n.to_os_string());
+    let runs = dir.parent();
+    let exp = runs.and_then(Path::parent);
+    let fits = name_of(Some(dir)).is_some_and(|n| n == run_name.as_str())
+        && name_of(runs).is_some_and(|n| n == "runs")
+        && name_of(exp).is_some_and(|n| n == plan.name.as_str());
+    let Some(root) = exp.and_then(Path::parent).filter(|_| fits) else {
+        return Err(bad(
+            "run_name",
+            format!(
+                "the run folder '{}' is not `<root>/{}/runs/{run_name}` (moved or renamed, or plan.json edited): collect it where it was planned, or plan the run again",
+                dir.display(),
+                plan.name
+            ),
+        ));
+    };
+    if std::fs::canonicalize(planned).ok().as_deref() != Some(root) {
+        eprintln!(
+            "note: the run was planned in the results root '{}' and now lies in '{}': its reference cache and `latest` are written there",
+            crate::io::text::show_path(planned),
+            root.display()
+        );
+    }
+    Ok(Some(root.to_path_buf()))
 }
 
 /// A job line's own checks: its index is its line, its folder is `jobs/<index>`, its ranges and
-/// budgets make sense.
+/// budgets make sense and stay within the bounds of the command line (at most 2²⁴ samples per
+/// render, budgets of at most 2²⁴ spp or 10⁷ s).
 fn check_job(j: &Job, index: usize, what: &str) -> Result<(), Error> {
     let bad = |field: &str, m: String| Error::input(format!("{what}: field `{field}`: {m}"));
     if j.index != index {
@@ -416,6 +522,13 @@ fn check_job(j: &Job, index: usize, what: &str) -> Result<(), Error> {
         Work::ReferenceShard { samples: [a, b] } if a >= b => {
             Err(bad("work.samples", format!("{a}..{b} is an empty range")))
         }
+        Work::ReferenceShard { samples: [a, b] } if b - a > MAX_SPP => Err(bad(
+            "work.samples",
+            format!(
+                "{a}..{b} holds {} samples, at most {MAX_SPP} in one job",
+                b - a
+            ),
+        )),
         Work::Variant { budgets, .. }
             if budgets.is_empty() || budgets.iter().any(|b| !(b.is_finite() && *b > 0.0)) =>
         {
@@ -423,6 +536,27 @@ fn check_job(j: &Job, index: usize, what: &str) -> Result<(), Error> {
                 "work.budgets",
                 "must list positive, finite budgets".into(),
             ))
+        }
+        Work::Variant { budgets, mode, .. } if budgets.len() > MAX_BUDGETS => Err(bad(
+            "work.budgets",
+            format!(
+                "lists {} budgets of the {} mode, at most {MAX_BUDGETS}",
+                budgets.len(),
+                mode.name()
+            ),
+        )),
+        Work::Variant { budgets, mode, .. } => {
+            let max = match mode {
+                BudgetMode::Spp => MAX_SPP as f64,
+                BudgetMode::Time => MAX_SECONDS,
+            };
+            match budgets.iter().find(|b| **b > max) {
+                Some(b) => Err(bad(
+                    "work.budgets",
+                    format!("{b} is above the largest {} budget, {max:e}", mode.name()),
+                )),
+                None => Ok(()),
+            }
         }
         _ => Ok(()),
     }

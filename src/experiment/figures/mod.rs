@@ -27,7 +27,9 @@ pub fn resolve_run_dir(dir: &Path) -> Result<PathBuf, Error> {
         return Ok(dir.to_path_buf());
     }
     let latest = dir.join("latest");
-    if let Ok(t) = std::fs::read_to_string(&latest) {
+    if latest.exists() {
+        let t =
+            crate::io::input::read_text(&latest, crate::io::input::LATEST).map_err(Error::input)?;
         if !safe_relative(t.trim()) {
             return Err(Error::input(format!(
                 "'{}': {:?} is not a run folder inside '{}'",
@@ -54,18 +56,28 @@ const MAX_FIGURE_PIXELS: u64 = 1 << 28;
 /// `metrics.csv`, `sweep.json`, the EXRs) is checked first: a malformed or inconsistent file is an
 /// input error naming it; a figure that cannot be written is a runtime error.
 pub fn make_all(dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    make(dir, true)
+}
+
+/// [`make_all`], or only the plots that `metrics.csv` alone gives (`images` false: a run whose
+/// images were not kept, such as a committed one).
+pub fn make(dir: &Path, images: bool) -> Result<Vec<PathBuf>, Error> {
     let dir = resolve_run_dir(dir)?;
     let info = RunInfo::read(&dir)?;
     if info.config.sweep.is_some() {
         // A sweep: every value's folder is a run of its own, plus the summary.
         let mut out = Vec::new();
         for p in SweepRecord::read(&dir)?.points {
-            out.extend(make_all(&dir.join(&p.dir))?);
+            out.extend(make(&dir.join(&p.dir), images)?);
         }
         out.extend(sweep_summary(&dir)?);
         return Ok(out);
     }
     let rows = read_metrics(&dir.join("metrics.csv"))?;
+    if images {
+        // Before anything is written: a run without its images keeps its old figures.
+        check_images(&dir, &info)?;
+    }
     let fig = dir.join("figures");
     std::fs::create_dir_all(&fig)
         .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", fig.display())))?;
@@ -82,14 +94,50 @@ pub fn make_all(dir: &Path) -> Result<Vec<PathBuf>, Error> {
             }
         }
     }
-    out.extend(image_figures(&dir, &info, &rows, &fig)?);
-    if !info.grid_cells.is_empty() {
-        out.extend(parameter_grid(&dir, &info, &fig)?);
+    if images {
+        out.extend(image_figures(&dir, &info, &rows, &fig)?);
+        if !info.grid_cells.is_empty() {
+            out.extend(parameter_grid(&dir, &info, &fig)?);
+        }
     }
     // For papers: the final-budget SNR table (booktabs); docs/figures.md puts it and the SVGs
     // into LaTeX.
     out.extend(super::latex_table::write_summary_table(&dir)?);
     Ok(out)
+}
+
+/// An input error naming the first image the image figures need that is not in the run folder:
+/// the reference, every variant's final image of repeat 0, the grid's cells.
+fn check_images(dir: &Path, info: &RunInfo) -> Result<(), Error> {
+    let mut need: Vec<String> = info.reference_file.iter().cloned().collect();
+    if info.grid_cells.is_empty()
+        && let Some(mb) = final_mode(info)
+    {
+        let idx = mb.budgets.len() - 1;
+        need.extend(
+            info.config
+                .variants
+                .iter()
+                .map(|v| image_file(&v.name, mb.mode, idx, 0)),
+        );
+    }
+    need.extend(info.grid_cells.iter().map(|c| c.file.clone()));
+    match need.iter().find(|f| !dir.join(f).is_file()) {
+        None => Ok(()),
+        Some(f) => Err(Error::input(format!(
+            "'{}' is missing: the image figures need the run's images, and none was written \
+             (`stokes figures --plots-only` redraws the plots from metrics.csv alone)",
+            dir.join(f).display()
+        ))),
+    }
+}
+
+/// The budget mode whose final budget the image figures show: equal time, else the first.
+fn final_mode(info: &RunInfo) -> Option<&super::record::ModeBudgets> {
+    info.modes
+        .iter()
+        .find(|m| m.mode == BudgetMode::Time)
+        .or(info.modes.first())
 }
 
 /// An input error when a composite figure of `w`×`h` pixels would be too large.
@@ -200,12 +248,7 @@ fn image_figures(
     fig: &Path,
 ) -> Result<Vec<PathBuf>, Error> {
     let mut out = Vec::new();
-    let Some(mb) = info
-        .modes
-        .iter()
-        .find(|m| m.mode == BudgetMode::Time)
-        .or(info.modes.first())
-    else {
+    let Some(mb) = final_mode(info) else {
         return Ok(out);
     };
     if !info.grid_cells.is_empty() {
@@ -219,9 +262,7 @@ fn image_figures(
     let mut imgs = Vec::new();
     for v in &info.config.variants {
         let f = image_file(&v.name, mb.mode, idx, 0);
-        if dir.join(&f).is_file() {
-            imgs.push((v.name.clone(), read_run_image(dir, &f, info, false)?));
-        }
+        imgs.push((v.name.clone(), read_run_image(dir, &f, info, false)?));
     }
     if imgs.is_empty() {
         return Ok(out);

@@ -45,6 +45,7 @@ pub fn write(dir: &Path) -> Result<Written, Error> {
     check_complete(dir)?;
     let run = resolve_run_dir(dir)?;
     check_complete(&run)?;
+    crate::io::tree::check_run_folder(&run).map_err(Error::input)?;
     let info = RunInfo::read(&run)?;
     if info.config.sweep.is_some() {
         return write_sweep(&run, &info);

@@ -14,16 +14,9 @@ use std::path::Path;
 const MAX_FIGURE_BYTES: u64 = 64 << 20;
 
 fn read_figure(p: &Path) -> Result<Vec<u8>, Error> {
-    let len = std::fs::metadata(p)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?
-        .len();
-    if len > MAX_FIGURE_BYTES {
-        return Err(Error::input(format!(
-            "'{}' is {len} bytes; the report embeds figures of at most {MAX_FIGURE_BYTES} bytes",
-            p.display()
-        )));
-    }
-    std::fs::read(p).map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))
+    const FIGURE: crate::io::input::Kind =
+        crate::io::input::Kind::new("figure the report embeds", MAX_FIGURE_BYTES);
+    crate::io::input::read_bytes(p, FIGURE).map_err(Error::input)
 }
 
 /// `svg` with every `href="NAME.png"` naming a PNG of `fig` replaced by its data URL, and an

@@ -43,9 +43,9 @@ struct Entry {
 /// Read summary.json of the run folder `dir`.
 fn read_summary(dir: &Path) -> Result<Vec<Entry>, Error> {
     let p = dir.join("summary.json");
-    let text = std::fs::read_to_string(&p)
-        .map_err(|e| Error::input(format!("cannot read '{}': {e}", p.display())))?;
-    Ok(crate::scene::error::from_json_str(&p, &text)?)
+    let text =
+        crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
+    Ok(crate::scene::error::from_json_array_str(&p, &text)?)
 }
 
 /// A column: heading, the value of an entry, whether larger is better (`None`: not ranked),

@@ -135,8 +135,9 @@ impl Grid {
 impl GmmFile {
     /// Parse and validate a model file; errors name the field and what is wrong.
     pub fn parse(text: &str) -> Result<GmmFile, String> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        let f: GmmFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        crate::io::json::json_document(text, "{")?;
+        let mut de = serde_json::Deserializer::from_str(text);
+        let f: GmmFile = serde_path_to_error::deserialize(&mut de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
             if path == "." {
@@ -145,6 +146,8 @@ impl GmmFile {
                 format!("{path}: {inner}")
             }
         })?;
+        de.end()
+            .map_err(|e| format!("{e}: nothing may follow the JSON document but whitespace"))?;
         f.check()?;
         Ok(f)
     }
