@@ -17,41 +17,26 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Exit code and stderr of `stokes ARGS` run in `cwd` under a 20-second and 2 GiB limit; a
-/// time-out is exit code -1.
 fn run_in(cwd: &Path, args: &[&str]) -> (i32, String) {
-    let mut child = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 2097152 2>/dev/null; exec \"$0\" \"$@\"")
-        .arg(bin())
-        .args(args)
-        .current_dir(cwd)
-        .env("STOKES_CACHE_DIR", cwd.join(".cache"))
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            let mut err = String::new();
-            use std::io::Read;
-            child
-                .stderr
-                .take()
-                .unwrap()
-                .read_to_string(&mut err)
-                .unwrap();
-            return (st.code().unwrap_or(-2), err);
-        }
-        if t.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
-            let _ = child.wait();
-            return (-1, format!("timed out: stokes {args:?}"));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    common::run_limited(cwd, args)
+}
+
+/// `stokes gmm fit` of GOLFYE with two Gaussians into `model`, which must succeed.
+fn fit_golfye(d: &Path, model: &Path) {
+    let golfye = repo().join("data/bispectral/GOLFYE.BFC");
+    let r = run_in(
+        d,
+        &[
+            "gmm",
+            "fit",
+            s(&golfye),
+            "--components",
+            "2",
+            "-o",
+            s(model),
+        ],
+    );
+    assert_eq!(r.0, 0, "{}", r.1);
 }
 
 /// Exit code 2 within the limits, no panic, and every one of `names` in the message.
@@ -282,19 +267,7 @@ fn outputs_are_checked_before_the_first_sample_and_never_replace_special_files()
     assert!(t.elapsed() < Duration::from_secs(10), "{:?}", t.elapsed());
     // gmm dense and merge check theirs the same way.
     let model = d.join("m.json");
-    let r = run_in(
-        &d,
-        &[
-            "gmm",
-            "fit",
-            s(&repo().join("data/bispectral/GOLFYE.BFC")),
-            "--components",
-            "2",
-            "-o",
-            s(&model),
-        ],
-    );
-    assert_eq!(r.0, 0, "{}", r.1);
+    fit_golfye(&d, &model);
     if is_char_device(&dev) {
         let bfc = d.join("x.bfc");
         assert!(mknod_null(&bfc));
@@ -378,19 +351,7 @@ fn trailing_data_labels_and_top_level_types_are_checked() {
         &["c.json", "trailing"],
     );
     let model = d.join("g.json");
-    let r = run_in(
-        &d,
-        &[
-            "gmm",
-            "fit",
-            s(&repo().join("data/bispectral/GOLFYE.BFC")),
-            "--components",
-            "2",
-            "-o",
-            s(&model),
-        ],
-    );
-    assert_eq!(r.0, 0, "{}", r.1);
+    fit_golfye(&d, &model);
     let m = std::fs::read_to_string(&model).unwrap();
     std::fs::write(&model, format!("{m} trailing")).unwrap();
     refused(

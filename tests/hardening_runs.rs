@@ -13,45 +13,10 @@ use common::{bin, repo, s};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
-/// Exit code and stderr of `stokes ARGS` in `cwd`, under a 20-second and 2 GiB limit (a
-/// time-out is exit code -1).
 fn run_in(cwd: &Path, args: &[&str]) -> (i32, String) {
-    let mut child = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 2097152 2>/dev/null; exec \"$0\" \"$@\"")
-        .arg(bin())
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_CPUS_PER_TASK")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            let mut err = String::new();
-            use std::io::Read;
-            child
-                .stderr
-                .take()
-                .unwrap()
-                .read_to_string(&mut err)
-                .unwrap();
-            return (st.code().unwrap_or(-2), err);
-        }
-        if t.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
-            let _ = child.wait();
-            return (-1, format!("timed out: stokes {args:?}"));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    common::run_limited(cwd, args)
 }
 
 /// Every entry under `dir` (not following links) with what it is and, for a file, its bytes.

@@ -45,22 +45,7 @@ pub fn from_json_str<T: serde::de::DeserializeOwned>(
     file: &Path,
     text: &str,
 ) -> Result<T, InputError> {
-    crate::io::json::json_document(text, "{").map_err(|m| InputError::new(file, "", m))?;
-    let mut de = serde_json::Deserializer::from_str(text);
-    let v = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        let path = if path == "." { String::new() } else { path };
-        InputError::new(file, path, format!("{inner}"))
-    })?;
-    de.end().map_err(|e| {
-        InputError::new(
-            file,
-            "",
-            format!("{e}: nothing may follow the JSON document but whitespace"),
-        )
-    })?;
-    Ok(v)
+    from_json_document(file, text, "{")
 }
 
 /// Deserialize `T` from JSON text that must be one JSON array ([`from_json_str`] otherwise).
@@ -68,7 +53,17 @@ pub fn from_json_array_str<T: serde::de::DeserializeOwned>(
     file: &Path,
     text: &str,
 ) -> Result<T, InputError> {
-    crate::io::json::json_document(text, "[").map_err(|m| InputError::new(file, "", m))?;
+    from_json_document(file, text, "[")
+}
+
+/// `T` from `text`, whose top level opens with `open` (`{` or `[`) and which holds nothing
+/// after the document but whitespace.
+fn from_json_document<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    text: &str,
+    open: &str,
+) -> Result<T, InputError> {
+    crate::io::json::json_document(text, open).map_err(|m| InputError::new(file, "", m))?;
     let mut de = serde_json::Deserializer::from_str(text);
     let v = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
@@ -76,7 +71,11 @@ pub fn from_json_array_str<T: serde::de::DeserializeOwned>(
         InputError::new(file, path, format!("{}", e.into_inner()))
     })?;
     de.end().map_err(|e| {
-        InputError::new(file, "", format!("{e}: nothing may follow the JSON array"))
+        InputError::new(
+            file,
+            "",
+            format!("{e}: nothing may follow the JSON document but whitespace"),
+        )
     })?;
     Ok(v)
 }

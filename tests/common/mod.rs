@@ -224,6 +224,47 @@ pub fn quick_experiment(cfg: &Path, out: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// Exit code and stderr of the `stokes` binary run with `args` in `cwd`, under a 20-second
+/// wall-clock and 2 GiB address-space limit, with no standard input and without the Slurm
+/// variables of the environment (a time-out is exit code -1, a signal -2).
+pub fn run_limited(cwd: &Path, args: &[&str]) -> (i32, String) {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 2097152 2>/dev/null; exec \"$0\" \"$@\"")
+        .arg(bin())
+        .args(args)
+        .current_dir(cwd)
+        .env("STOKES_CACHE_DIR", cwd.join(".cache"))
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("SLURM_CPUS_PER_TASK")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            use std::io::Read;
+            child
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut err)
+                .unwrap();
+            return (st.code().unwrap_or(-2), err);
+        }
+        if t.elapsed() > std::time::Duration::from_secs(20) {
+            let _ = child.kill();
+            let _ = child.wait();
+            return (-1, format!("timed out: stokes {args:?}"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
 /// The repository root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

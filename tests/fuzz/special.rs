@@ -212,34 +212,15 @@ impl Base {
                 c.input = "a config".into();
                 c
             }
-            7 => {
-                let out = dir.join("fit.json");
-                let mut c = plain_case(
-                    dir,
-                    vec![
-                        "gmm".into(),
-                        "fit".into(),
-                        s(&special),
-                        "-o".into(),
-                        s(&out),
-                    ],
-                );
-                c.input = "the BFC of gmm fit".into();
-                c
-            }
-            8 => {
-                let out = dir.join("dense.bfc");
-                let mut c = plain_case(
-                    dir,
-                    vec![
-                        "gmm".into(),
-                        "dense".into(),
-                        s(&special),
-                        "-o".into(),
-                        s(&out),
-                    ],
-                );
-                c.input = "the model of gmm dense".into();
+            7 | 8 => {
+                let (sub, out, what) = if slot == 7 {
+                    ("fit", "fit.json", "the BFC of gmm fit")
+                } else {
+                    ("dense", "dense.bfc", "the model of gmm dense")
+                };
+                let args = ["gmm", sub, &s(&special), "-o", &s(&dir.join(out))];
+                let mut c = plain_case(dir, args.map(String::from).to_vec());
+                c.input = what.into();
                 c
             }
             _ => {
