@@ -211,8 +211,7 @@ fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
     let mut seen: Vec<(&str, PathBuf)> = Vec::new();
     let mut resolved = Vec::new();
     for (opt, p) in outs {
-        let target =
-            check_output(p).map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(p))))?;
+        let target = check_output(p).map_err(|e| output_error(opt, p, e))?;
         let c = canonical_output(&target);
         if let Some((other, _)) = seen.iter().find(|(_, q)| *q == c) {
             return Err(Error::input(format!(
@@ -259,6 +258,16 @@ fn strategy_names_free(dir: &Path) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// The input error of the output option `opt` given `p`, from the message `e` of its check (which
+/// names the path itself when it is about the path, so it is not named twice).
+fn output_error(opt: &str, p: &Path, e: String) -> Error {
+    if e.starts_with(&format!("'{}'", show_path(p))) {
+        Error::input(format!("{opt} {e}"))
+    } else {
+        Error::input(format!("{opt} '{}': {e}", show_path(p)))
+    }
 }
 
 /// Whether `p`'s file name is that of a strategy image, `s<i>_t<j>.exr`.
@@ -320,11 +329,8 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
     }
     if let Some(p) = &outputs.stats {
         let json = stats_json(a.integrator, &opts, &out);
-        crate::film::output::write_atomic(p, |tmp| {
-            std::fs::write(tmp, serde_json::to_string_pretty(&json).unwrap())
-                .map_err(|e| format!("cannot write stats '{}': {e}", p.display()))
-        })
-        .map_err(Error::runtime)?;
+        let text = serde_json::to_string_pretty(&json).unwrap();
+        crate::io::output::write_bytes(p, text.as_bytes()).map_err(Error::runtime)?;
     }
     eprintln!(
         "{}: {} spp in {:.2} s ({:.3} M samples/s), {} NaN/Inf rejected",
@@ -374,7 +380,7 @@ pub fn merge(a: &MergeArgs) -> Result<(), Error> {
     }
     let mut targets: Vec<PathBuf> = Vec::new();
     for (opt, checked, given) in outs {
-        let t = checked.map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(given))))?;
+        let t = checked.map_err(|e| output_error(opt, given, e))?;
         let c = canonical_output(&t);
         if a.shards.iter().any(|s| canonical_output(s) == c) {
             return Err(Error::input(format!(
@@ -802,8 +808,7 @@ fn check_output_file(
     if !crate::film::output::has_extension(p, ext) {
         return Err(Error::input(format!("{opt} '{}': {why}", show_path(p))));
     }
-    let target =
-        check_output(p).map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(p))))?;
+    let target = check_output(p).map_err(|e| output_error(opt, p, e))?;
     let input = std::fs::canonicalize(input).unwrap_or_else(|_| canonical_output(input));
     if canonical_output(&target) == input {
         return Err(Error::input(format!(

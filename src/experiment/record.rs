@@ -5,7 +5,7 @@
 use super::config::{BudgetMode, Config, Crop, Scanline};
 use super::metrics::{self, Spread};
 use crate::error::Error;
-use crate::film::output::{read_exr, write_atomic};
+use crate::film::output::read_exr;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -472,10 +472,7 @@ pub fn mkdir(p: &Path) -> Result<(), Error> {
 
 /// Write `text` to `p` atomically (a temporary file, then a rename).
 pub fn write_text(p: &Path, text: &str) -> Result<(), Error> {
-    write_atomic(p, |tmp| {
-        std::fs::write(tmp, text).map_err(|e| format!("cannot write '{}': {e}", p.display()))
-    })
-    .map_err(Error::runtime)
+    crate::io::output::write_bytes(p, text.as_bytes()).map_err(Error::runtime)
 }
 
 /// Create a new, empty run folder under `<root>/<name>/runs/`; never reuses an existing one.

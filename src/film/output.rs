@@ -53,7 +53,8 @@ pub const MAX_READ_PIXELS: usize = 1 << 26;
 /// the header before anything is allocated.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
     use exr::prelude::*;
-    let (w, _) = read_exr_header(path)?;
+    // the size is checked from the header before any pixel is allocated
+    read_exr_header(path)?;
     let (reader, _) = crate::io::input::reader(path, crate::io::input::EXR)?;
     let img = read()
         .no_deep_data()
@@ -76,9 +77,8 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>), String> {
         .all_attributes()
         .from_buffered(reader)
         .map_err(|e| format!("cannot read EXR '{}': {e}", path.display()))?;
-    let (w2, h, px) = img.layer_data.channel_data.pixels;
-    debug_assert!(w2 == w.width());
-    Ok((w2 as u32, h as u32, px))
+    let (w, h, px) = img.layer_data.channel_data.pixels;
+    Ok((w as u32, h as u32, px))
 }
 
 /// The header of the OpenEXR `path` (a regular file), with its first layer's size checked: at

@@ -236,9 +236,7 @@ pub fn write_box_figure(stem: &Path, fig: &BoxFigure) -> Result<[std::path::Path
         draw(&root, fig)?;
         root.present().map_err(de)?;
     }
-    write_atomic(&svg_path, |tmp| {
-        std::fs::write(tmp, &svg).map_err(|e| format!("cannot write '{}': {e}", svg_path.display()))
-    })?;
+    crate::io::output::write_bytes(&svg_path, svg.as_bytes())?;
     let png_path = stem.with_extension("png");
     let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {

@@ -31,7 +31,6 @@
 
 use super::boxplot::{BoxFigure, BoxStats, box_stats, quantile, write_box_figure};
 use crate::Error;
-use crate::film::output::write_atomic;
 use crate::material::mixture::{FitMethod, FitOptions, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
 use crate::spectrum::Spectrum;
@@ -518,9 +517,7 @@ fn method_name(m: FitMethod) -> String {
 }
 
 fn write_text(path: &Path, text: &str) -> Result<(), String> {
-    write_atomic(path, |tmp| {
-        std::fs::write(tmp, text).map_err(|e| format!("cannot write '{}': {e}", path.display()))
-    })
+    crate::io::output::write_bytes(path, text.as_bytes())
 }
 
 /// Before anything is fitted: the output folder exists (it is created) and takes new files, and

@@ -2,7 +2,7 @@
 //! (docs/gmm.md).
 
 use crate::Error;
-use crate::film::output::write_atomic;
+use crate::io::output::write_bytes;
 use crate::material::mixture::file::sha256_hex;
 use crate::material::mixture::{FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
@@ -81,11 +81,7 @@ pub fn fit(jobs: &[(PathBuf, PathBuf)], opt: &FitOptions) -> Result<Vec<Fitted>,
         .map(|(f, output)| {
             let model = fit_file(f, opt)?;
             let output = output.clone();
-            write_atomic(&output, |tmp| {
-                std::fs::write(tmp, model.to_json())
-                    .map_err(|e| format!("cannot write '{}': {e}", output.display()))
-            })
-            .map_err(Error::runtime)?;
+            write_bytes(&output, model.to_json().as_bytes()).map_err(Error::runtime)?;
             bar.inc(1);
             Ok(Fitted {
                 input: f.clone(),

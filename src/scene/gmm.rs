@@ -7,7 +7,6 @@
 //! cache that cannot be written costs only a warning.
 
 use super::InputError;
-use crate::film::output::write_atomic;
 use crate::material::mixture::file::sha256_hex;
 use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
@@ -142,9 +141,7 @@ fn fitted(
     f.source.file = name.to_string();
     f.source.sha256 = hash;
     if let Some(p) = &path
-        && let Err(e) = write_atomic(p, |tmp| {
-            std::fs::write(tmp, f.to_json()).map_err(|e| e.to_string())
-        })
+        && let Err(e) = crate::io::output::write_bytes(p, f.to_json().as_bytes())
     {
         warnings.push(format!("cannot cache the fit: {e}"));
     }
