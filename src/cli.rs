@@ -4,7 +4,8 @@
 use crate::Error;
 use crate::film::{write_exr, write_png};
 use crate::integrator::{
-    IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
+    IntegratorKind, IntegratorOptions, LaneWeighting, LightWavelengths, MisHeuristic,
+    RenderSettings,
 };
 use crate::io::output::{canonical_output, check_output};
 use crate::io::text::show_path;
@@ -74,15 +75,54 @@ pub struct RenderArgs {
     /// max(σ̂t, σ̂s) hot-fix, or classic exponential sampling by σ̂t.
     #[arg(long, value_enum, default_value = "aware")]
     pub tracking: Tracking,
+    /// pt-hero in media: weight the lanes by the balance heuristic over every lane's distance
+    /// pdfs, or by the hero's distance decisions alone (Mojzík's HWSS, §6.2).
+    #[arg(long, value_enum, default_value = "balance")]
+    pub lane_weighting: LaneWeighting,
     /// Russian roulette from this many segments on (uni-directional tracers); off by default.
     #[arg(long)]
     pub rr_depth: Option<u32>,
-    /// Write each BDPT strategy's weighted contribution as its own EXR into this folder.
+    /// Also write a spectral image of N wavelength bins over the camera's range (OpenEXR in the
+    /// layout of Fichet et al. 2021: channels `S0.<λ>nm`, each a bin's mean spectral radiance).
+    #[arg(long, value_name = "N")]
+    pub spectral: Option<usize>,
+    /// Where `--spectral` writes (default: the output's name with `.spectral.exr`).
+    #[arg(long, value_name = "PATH", requires = "spectral")]
+    pub spectral_output: Option<PathBuf>,
+    /// Write each BDPT strategy's weighted contribution as its own EXR into this folder
+    /// (`s<i>_t<j>.exr`), and the images of one path length (`vertices<k>.exr`: the strategies
+    /// of k vertices summed; Jung Fig. 7.4).
     #[arg(long)]
     pub strategy_images: Option<PathBuf>,
+    /// Set a field of the scene before it loads: a dot path and a JSON value, e.g.
+    /// `--set media.dye.fluorescence.concentration=0` or `--set 'camera.sensor={"band":[300,380]}'`
+    /// (repeatable; a missing last key is inserted). The EXR's scene hash is of the changed text.
+    #[arg(long = "set", value_name = "PATH=JSON")]
+    pub set: Vec<String>,
     /// Do not print scene warnings.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// The `--set PATH=JSON` arguments as (dot path, value), or an input error naming the argument.
+pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, serde_json::Value)>, Error> {
+    sets.iter()
+        .map(|a| {
+            let (k, v) = a.split_once('=').ok_or_else(|| {
+                Error::input(format!(
+                    "--set '{a}': expected PATH=JSON, e.g. media.dye.fluorescence.concentration=0"
+                ))
+            })?;
+            if k.is_empty() || k.split('.').any(str::is_empty) {
+                return Err(Error::input(format!(
+                    "--set '{a}': '{k}' is not a dot path of object keys"
+                )));
+            }
+            let v: serde_json::Value = serde_json::from_str(v)
+                .map_err(|e| Error::input(format!("--set '{a}': the value is not JSON: {e}")))?;
+            Ok((k.to_string(), v))
+        })
+        .collect()
 }
 
 fn parse_samples(s: &str) -> Result<(u32, u32), String> {
@@ -106,6 +146,7 @@ impl RenderArgs {
             bin_width: self.bin_width,
             rr_depth: self.rr_depth,
             tracking: self.tracking,
+            lane_weighting: self.lane_weighting,
             strategy_images: self.strategy_images.is_some(),
         }
     }
@@ -139,6 +180,7 @@ pub const MAX_EXPOSURE: f32 = 64.0;
 #[derive(Clone, Debug)]
 pub struct RenderOutputs {
     pub exr: PathBuf,
+    pub spectral: Option<PathBuf>,
     pub png: Option<PathBuf>,
     pub stats: Option<PathBuf>,
 }
@@ -172,6 +214,27 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
             "--threads must be 1–{MAX_THREADS}, got {n}"
         )));
     }
+    if let Some(n) = a.spectral {
+        if !(1..=crate::film::spectral::MAX_BINS).contains(&n) {
+            return Err(Error::input(format!(
+                "--spectral must be 1–{} bins, got {n}",
+                crate::film::spectral::MAX_BINS
+            )));
+        }
+        if a.samples.is_some() {
+            return Err(Error::input(
+                "--spectral cannot be combined with --samples: spectral images of sample ranges \
+                 cannot be merged (render the whole range)",
+            ));
+        }
+        if a.integrator == IntegratorKind::BdptAllbins {
+            return Err(Error::input(
+                "--spectral: bdpt-allbins cannot make a spectral image (it carries the camera's \
+                 three CIE importance rows, not per-bin radiance); use bdpt-forward, \
+                 bdpt-backward, pt-hero or pt-mono",
+            ));
+        }
+    }
     if !(a.exposure.abs() <= MAX_EXPOSURE) {
         return Err(Error::input(format!(
             "--exposure must be a finite number of stops in [-{MAX_EXPOSURE}, {MAX_EXPOSURE}], got {}",
@@ -181,6 +244,7 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
     a.options()
         .validate()
         .map_err(|m| Error::input(format!("option {m}")))?;
+    parse_sets(&a.set)?;
     check_outputs(a)
 }
 
@@ -205,7 +269,21 @@ fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
             p.display()
         )));
     }
+    if let Some(p) = &a.spectral_output
+        && !crate::film::output::has_extension(p, "exr")
+    {
+        return Err(Error::input(format!(
+            "--spectral-output '{}': the spectral image is written as OpenEXR, so its name must end in .exr",
+            p.display()
+        )));
+    }
+    let spectral = a.spectral.map(|_| {
+        a.spectral_output
+            .clone()
+            .unwrap_or_else(|| a.output.with_extension("spectral.exr"))
+    });
     let mut outs: Vec<(&str, &Path)> = vec![("-o/--output", &a.output)];
+    outs.extend(spectral.as_deref().map(|p| ("--spectral-output", p)));
     outs.extend(a.png.as_deref().map(|p| ("--png", p)));
     outs.extend(a.stats.as_deref().map(|p| ("--stats", p)));
     let mut seen: Vec<(&str, PathBuf)> = Vec::new();
@@ -225,6 +303,7 @@ fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
     let mut resolved = resolved.into_iter();
     let outputs = RenderOutputs {
         exr: resolved.next().expect("-o is always given"),
+        spectral: spectral.as_ref().and_then(|_| resolved.next()),
         png: a.png.as_ref().and_then(|_| resolved.next()),
         stats: a.stats.as_ref().and_then(|_| resolved.next()),
     };
@@ -240,7 +319,7 @@ fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
             .find(|(_, q)| q.parent() == d.parent() && is_strategy_name(q))
         {
             return Err(Error::input(format!(
-                "--strategy-images '{}': {opt} has the name of a strategy image (s<i>_t<j>.exr) in this folder and would be replaced",
+                "--strategy-images '{}': {opt} has the name of a strategy image (s<i>_t<j>.exr or vertices<k>.exr) in this folder and would be replaced",
                 dir.display()
             )));
         }
@@ -270,16 +349,36 @@ fn output_error(opt: &str, p: &Path, e: String) -> Error {
     }
 }
 
-/// Whether `p`'s file name is that of a strategy image, `s<i>_t<j>.exr`.
+/// Whether `p`'s file name is that of a strategy image, `s<i>_t<j>.exr`, or of an image of one
+/// path length, `vertices<k>.exr`.
 fn is_strategy_name(p: &Path) -> bool {
     let Some(n) = p.file_name().and_then(|n| n.to_str()) else {
         return false;
     };
     let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
-    n.strip_suffix(".exr")
-        .and_then(|n| n.strip_prefix('s'))
-        .and_then(|n| n.split_once("_t"))
-        .is_some_and(|(a, b)| digits(a) && digits(b))
+    let Some(n) = n.strip_suffix(".exr") else {
+        return false;
+    };
+    n.strip_prefix("vertices").is_some_and(digits)
+        || n.strip_prefix('s')
+            .and_then(|n| n.split_once("_t"))
+            .is_some_and(|(a, b)| digits(a) && digits(b))
+}
+
+/// The strategy images `s<i>_t<j>` grouped by the number of path vertices i + j, in increasing
+/// order: (vertices, indices of the layers).
+fn layers_by_vertices(names: &[String]) -> Vec<(usize, Vec<usize>)> {
+    let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for (i, n) in names.iter().enumerate() {
+        let k = n
+            .strip_prefix('s')
+            .and_then(|n| n.split_once("_t"))
+            .and_then(|(a, b)| Some(a.parse::<usize>().ok()? + b.parse::<usize>().ok()?));
+        if let Some(k) = k {
+            groups.entry(k).or_default().push(i);
+        }
+    }
+    groups.into_iter().collect()
 }
 
 pub fn render(a: &RenderArgs) -> Result<(), Error> {
@@ -287,6 +386,14 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
     // The scene's text is read once: what renders is what the EXR's scene hash describes.
     let text = crate::io::input::read_text(&a.scene, crate::io::input::SCENE)
         .map_err(|e| Error::input(format!("cannot read the scene: {e}")))?;
+    let sets = parse_sets(&a.set)?;
+    let text = if sets.is_empty() {
+        text
+    } else {
+        use crate::experiment::overrides::{Missing, apply};
+        apply(&text, &a.scene, &sets, Missing::Insert)
+            .map_err(|e| Error::input(format!("--set: {e} in '{}'", show_path(&a.scene))))?
+    };
     // the scene's BVH build runs its parallel parts on `--threads` workers too
     let scene = crate::integrator::with_threads(a.threads, || {
         Scene::from_str(&a.scene, &text)
@@ -302,6 +409,7 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         threads: a.threads,
         time_limit: a.time_limit,
         progress: true,
+        spectral: a.spectral,
     };
     let opts = a.options();
     let out = crate::integrator::render(&scene, a.integrator, &opts, &settings, None)
@@ -318,6 +426,13 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
     );
     crate::film::shard::write_film(&outputs.exr, &out.film, &info, a.samples.is_some())
         .map_err(Error::runtime)?;
+    if let (Some(p), Some(sf)) = (&outputs.spectral, &out.film.spectral) {
+        let mut extra = crate::film::shard::attributes(&info);
+        extra.push(("stokes.sensor".to_string(), sensor_label(&scene)));
+        let values = sf.values(out.film.spp);
+        crate::film::spectral::write_spectral_exr(p, (w, h), &sf.bins, &values, &rgb, &extra)
+            .map_err(Error::runtime)?;
+    }
     if let Some(p) = &outputs.png {
         write_png(p, w, h, &rgb, a.exposure).map_err(Error::runtime)?;
     }
@@ -325,6 +440,16 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         for (i, name) in out.film.aux_names.iter().enumerate() {
             write_exr(&dir.join(format!("{name}.exr")), w, h, &out.film.aux_rgb(i))
                 .map_err(Error::runtime)?;
+        }
+        // images of one path length (Jung Fig. 7.4): the strategies of k vertices summed
+        for (k, layers) in layers_by_vertices(&out.film.aux_names) {
+            let mut img = vec![glam::Vec3::ZERO; (w * h) as usize];
+            for i in layers {
+                for (p, v) in img.iter_mut().zip(out.film.aux_rgb(i)) {
+                    *p += v;
+                }
+            }
+            write_exr(&dir.join(format!("vertices{k}.exr")), w, h, &img).map_err(Error::runtime)?;
         }
     }
     if let Some(p) = &outputs.stats {
@@ -340,6 +465,128 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         out.stats.paths as f64 / out.seconds.max(1e-9) / 1e6,
         out.stats.nan_inf_rejected
     );
+    Ok(())
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct DiffArgs {
+    /// The first image (OpenEXR, linear sRGB).
+    pub a: PathBuf,
+    /// The second image, of the same size.
+    pub b: PathBuf,
+    /// The figure: a PNG (and an SVG beside it) with both images and Y(a) − Y(b).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The figure's title (default: the two file names).
+    #[arg(long)]
+    pub title: Option<String>,
+}
+
+/// `stokes diff`: the signed luminance difference of two EXRs as a figure (red/green diverging,
+/// symmetric scale at the 99th percentile of |difference|; Mojzík 2018 Fig. 11d/f).
+pub fn diff(a: &DiffArgs) -> Result<(), Error> {
+    use crate::film::output::{has_extension, read_exr};
+    if !has_extension(&a.output, "png") {
+        return Err(Error::input(format!(
+            "-o/--output '{}': the figure is a PNG, so its name must end in .png",
+            show_path(&a.output)
+        )));
+    }
+    let target = check_output(&a.output).map_err(|e| output_error("-o/--output", &a.output, e))?;
+    let (wa, ha, ia) = read_exr(&a.a).map_err(Error::input)?;
+    let (wb, hb, ib) = read_exr(&a.b).map_err(Error::input)?;
+    if (wa, ha) != (wb, hb) {
+        return Err(Error::input(format!(
+            "'{}' is {wa}×{ha} and '{}' is {wb}×{hb}: a difference needs images of one size",
+            show_path(&a.a),
+            show_path(&a.b)
+        )));
+    }
+    let name = |p: &Path| {
+        p.file_stem()
+            .map_or_else(|| show_path(p), |s| s.to_string_lossy().into_owned())
+    };
+    let (na, nb) = (name(&a.a), name(&a.b));
+    let title = a.title.clone().unwrap_or_else(|| format!("{na} − {nb}"));
+    let dir = target.parent().filter(|d| !d.as_os_str().is_empty());
+    let dir = dir.unwrap_or(Path::new("."));
+    let stem = target
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let (_, m) = crate::experiment::figures::difference_of_images(
+        (&na, &ia),
+        (&nb, &ib),
+        (wa, ha),
+        &title,
+        (dir, &stem),
+    )?;
+    let y = |img: &[glam::Vec3]| {
+        img.iter()
+            .map(|c| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64)
+            .sum::<f64>()
+            / img.len().max(1) as f64
+    };
+    println!(
+        "mean Y: {na} {:.6}, {nb} {:.6}, difference {:+.6}; scale ±{m:.4} (99th percentile of |ΔY|)",
+        y(&ia),
+        y(&ib),
+        y(&ia) - y(&ib)
+    );
+    // SNR of a against b as the experiments measure it, and of its luminance alone (spatial
+    // noise without colour noise)
+    let rgb = crate::experiment::metrics::compare(&ia, &ib, None).snr_db;
+    let lum = |c: &glam::Vec3| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64;
+    let (sig, noise) = ia.iter().zip(&ib).fold((0.0, 0.0), |(s, n), (p, q)| {
+        (s + lum(q) * lum(q), n + (lum(p) - lum(q)).powi(2))
+    });
+    let y_snr = crate::experiment::metrics::snr_db(sig, noise);
+    println!("SNR of {na} against {nb}: {rgb:.2} dB (linear sRGB), {y_snr:.2} dB (luminance Y)");
+    Ok(())
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct PngArgs {
+    /// The image (OpenEXR, linear sRGB).
+    pub input: PathBuf,
+    /// The 8-bit sRGB PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Exposure in stops; without it the 99th percentile of the brightest channel maps to white.
+    #[arg(long)]
+    pub exposure: Option<f32>,
+}
+
+/// `stokes png`: an sRGB PNG of an EXR (for example a strategy image or `vertices<k>.exr`).
+pub fn png(a: &PngArgs) -> Result<(), Error> {
+    use crate::film::output::{has_extension, read_exr};
+    if !has_extension(&a.output, "png") {
+        return Err(Error::input(format!(
+            "-o/--output '{}': the name of the PNG must end in .png",
+            show_path(&a.output)
+        )));
+    }
+    if let Some(e) = a.exposure
+        && !(e.abs() <= MAX_EXPOSURE)
+    {
+        return Err(Error::input(format!(
+            "--exposure must be a finite number of stops in [-{MAX_EXPOSURE}, {MAX_EXPOSURE}], got {e}"
+        )));
+    }
+    let target = check_output(&a.output).map_err(|e| output_error("-o/--output", &a.output, e))?;
+    let (w, h, img) = read_exr(&a.input).map_err(Error::input)?;
+    let exposure = a.exposure.unwrap_or_else(|| {
+        let mut v: Vec<f32> = img
+            .iter()
+            .map(|c| c.max_element())
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        v.sort_by(f32::total_cmp);
+        v.get((v.len() as f64 * 0.99) as usize)
+            .map_or(0.0, |p| -p.max(1e-12).log2())
+    });
+    write_png(&target, w, h, &img, exposure).map_err(Error::runtime)?;
+    println!("{}: exposure {exposure:+.2} stops", show_path(&target));
     Ok(())
 }
 
@@ -1013,4 +1260,14 @@ pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
         println!("{}", f.display());
     }
     Ok(())
+}
+
+/// What the camera of `scene` integrates, for the spectral EXR's `stokes.sensor` attribute.
+fn sensor_label(scene: &Scene) -> String {
+    let r = scene.observer.range;
+    if scene.observer.is_cie() {
+        format!("cie-1931 over [{}, {}] nm", r.min, r.max)
+    } else {
+        format!("response over [{}, {}] nm", r.min, r.max)
+    }
 }

@@ -53,6 +53,10 @@ enum Command {
         #[command(subcommand)]
         command: GmmCommand,
     },
+    /// The signed luminance difference of two EXRs as a figure (both images and Y(a) − Y(b)).
+    Diff(cli::DiffArgs),
+    /// Write an sRGB PNG of an EXR (fixed exposure, or the 99th percentile to white).
+    Png(cli::PngArgs),
     /// Print what a scene contains (materials, lights, fluorescence) after validation.
     Inspect {
         /// Scene JSON file.
@@ -95,6 +99,8 @@ fn main() -> ExitCode {
     let r = match args.command {
         Command::Render(a) => cli::render(&a),
         Command::Inspect { scene } => cli::inspect(&scene),
+        Command::Diff(a) => cli::diff(&a),
+        Command::Png(a) => cli::png(&a),
         Command::Merge(a) => cli::merge(&a),
         Command::Job(a) => cli::job(&a),
         Command::Experiment(a) => cli::experiment(&a),

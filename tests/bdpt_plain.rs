@@ -58,8 +58,13 @@ fn check(trial: &[PlainTrial; 2], what: &str) -> bool {
     );
     match (plain.contribution, full.contribution) {
         (None, None) => false,
-        (Some((a, sa)), Some((b, sb))) => {
+        (Some((a, sa, (la, ra))), Some((b, sb, (lb, rb)))) => {
             assert_eq!(sa, sb, "{what}: splat position");
+            assert_eq!(la, lb, "{what}: camera wavelength");
+            assert!(
+                (ra - rb).abs() <= 1e-5 * rb.abs(),
+                "{what}: spectral radiance plain {ra} vs full {rb}"
+            );
             let err = (a - b).abs().max_element() / b.abs().max_element();
             assert!(
                 err <= 1e-5,

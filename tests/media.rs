@@ -10,12 +10,13 @@ use common::{
     assert_agree, dye_box, load, load_sized, mean_xyz, media_scenes, noise_ok, quadrants,
 };
 use std::path::Path;
-use stokes::integrator::{IntegratorKind, IntegratorOptions};
+use stokes::integrator::{IntegratorKind, IntegratorOptions, LaneWeighting};
 use stokes::medium::Tracking;
 use stokes::scene::Scene;
 use stokes::spectrum::xyz_to_linear_srgb;
 
-/// Every tracking mode, with both tracers, holds the furnace within 1 % in Y and in each
+/// Every tracking mode, with both tracers (pt-hero also with Mojzík's own HWSS lane weights),
+/// holds the furnace within 1 % in Y and in each
 /// linear-sRGB channel. 16×16 pixels × 4096 spp; Russian roulette from segment 6 (unbiased) and
 /// max depth 96: the single-scattering albedo is 1, and the probability of a path staying
 /// inside a unit sphere of optical radius ≤ 3.4 for 96 collisions is negligible.
@@ -26,11 +27,16 @@ fn media_furnace_holds_for_every_tracking_mode() {
     let want = scene.observer.function_to_xyz(|l| le.eval(l) as f64);
     let want_rgb = xyz_to_linear_srgb(want);
     for tracking in [Tracking::Aware, Tracking::Max, Tracking::Exponential] {
-        for kind in [IntegratorKind::PtMono, IntegratorKind::PtHero] {
+        for (kind, lane_weighting) in [
+            (IntegratorKind::PtMono, LaneWeighting::Balance),
+            (IntegratorKind::PtHero, LaneWeighting::Balance),
+            (IntegratorKind::PtHero, LaneWeighting::Hero),
+        ] {
             let opts = IntegratorOptions {
                 max_depth: 96,
                 rr_depth: Some(6),
                 tracking,
+                lane_weighting,
                 ..Default::default()
             };
             let (got, se) = mean_xyz(&scene, kind, &opts, 4096, 11);
@@ -97,6 +103,25 @@ fn mono_hero_and_tracking_modes_agree_in_a_fluorescent_medium() {
     }
     let m = quadrants(&scene, IntegratorKind::PtMono, &opts(Tracking::Max), 512, 6);
     assert_agree("pt-mono aware vs max", mono, m);
+    // Mojzík's HWSS (the hero's distance decisions alone) converges to the same image here,
+    // where every lane can collide (σs = 0.2 at every wavelength). 12 seeds a side: with 6, the
+    // per-quadrant σ is itself too rough for eight 3σ comparisons (one 3.4σ outlier among them
+    // vanished at 16 seeds × 512 spp: 0.11σ).
+    let balance = quadrants(
+        &scene,
+        IntegratorKind::PtHero,
+        &opts(Tracking::Aware),
+        256,
+        12,
+    );
+    for t in [Tracking::Aware, Tracking::Exponential] {
+        let o = IntegratorOptions {
+            lane_weighting: LaneWeighting::Hero,
+            ..opts(t)
+        };
+        let h = quadrants(&scene, IntegratorKind::PtHero, &o, 256, 12);
+        assert_agree(&format!("pt-hero balance vs HWSS {t:?}"), balance, h);
+    }
 }
 
 /// The grey Cornell-box medium (the Mitsuba comparison scene): pt-mono and pt-hero agree.
@@ -165,11 +190,16 @@ fn narrow_emission_furnace_stays_finite() {
     assert_eq!(le.eval(547.0), 0.4);
     let want = scene.observer.function_to_xyz(|l| le.eval(l) as f64);
     for tracking in [Tracking::Aware, Tracking::Max, Tracking::Exponential] {
-        for kind in [IntegratorKind::PtMono, IntegratorKind::PtHero] {
+        for (kind, lane_weighting) in [
+            (IntegratorKind::PtMono, LaneWeighting::Balance),
+            (IntegratorKind::PtHero, LaneWeighting::Balance),
+            (IntegratorKind::PtHero, LaneWeighting::Hero),
+        ] {
             let opts = IntegratorOptions {
                 max_depth: 96,
                 rr_depth: Some(6),
                 tracking,
+                lane_weighting,
                 ..Default::default()
             };
             let (got, se) = mean_xyz(&scene, kind, &opts, 256, 5);

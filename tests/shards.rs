@@ -14,6 +14,7 @@ fn settings(from: u32, spp: u32) -> RenderSettings {
         threads: Some(2),
         time_limit: None,
         progress: false,
+        spectral: None,
     }
 }
 

@@ -30,6 +30,7 @@ pub fn render_cells(s: &Setup, run_dir: &Path, bar: &ProgressBar) -> Result<Vec<
             bar.inc(per_job(&s.modes[0]));
         }
     }
+    super::record::write_text(&run_dir.join("grid.csv"), &cells_csv(g, &cells))?;
     Ok(cells)
 }
 
@@ -96,6 +97,7 @@ pub(super) fn render_cell(
             BudgetMode::Time => Some(last),
         },
         progress: false,
+        spectral: None,
     };
     let out = render(&scene, v.integrator, &v.options, &settings, None)
         .map_err(|e| Error::runtime(format!("grid: {e}")))?;
@@ -105,7 +107,43 @@ pub(super) fn render_cell(
         row: i,
         column: j,
         file,
+        material_mean_y: material_mean_y(&scene, &g.material, &out.film.rgb()),
     })
+}
+
+/// Mean luminance Y of the pixels of the linear-sRGB image `rgb` whose first visible surface
+/// has the material `name` (the quantity Jung Fig. 7.13's comparisons of cells need); `None`
+/// when no pixel sees it. A cell's values change only spectra, so the base scene's pixels do.
+pub fn material_mean_y(scene: &Scene, name: &str, rgb: &[glam::Vec3]) -> Option<f64> {
+    let id = scene.material_names.iter().position(|n| n == name)? as u32;
+    let (_, ids) = super::regions::region_ids(scene, super::config::RegionBy::Material);
+    let to_xyz = crate::spectrum::cie::xyz_to_srgb_matrix().inverse();
+    let (sum, n) = ids
+        .iter()
+        .zip(rgb)
+        .filter(|(m, _)| **m == Some(id))
+        .fold((0.0f64, 0usize), |(s, n), (_, c)| {
+            (s + (to_xyz * *c).y as f64, n + 1)
+        });
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The cells' material means as CSV: row, column, the two parameters' values, mean Y.
+pub fn cells_csv(g: &Grid, cells: &[GridCell]) -> String {
+    let mut out = format!(
+        "row,column,{},{},material_mean_y\n",
+        g.rows.field, g.columns.field
+    );
+    for c in cells {
+        let y = c
+            .material_mean_y
+            .map_or(String::new(), |y| format!("{y:.6}"));
+        out.push_str(&format!(
+            "{},{},{},{},{y}\n",
+            c.row, c.column, g.rows.values[c.row], g.columns.values[c.column]
+        ));
+    }
+    out
 }
 
 /// Load the scene with the fields `overrides` of the grid's material set (inserted when the

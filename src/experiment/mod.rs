@@ -19,7 +19,7 @@ pub mod runner;
 // grid (once per value of a `sweep`); `progress` is the bar they share, `overrides` changes the
 // scene JSON for the grid and the sweep.
 mod grid;
-mod overrides;
+pub mod overrides;
 pub mod progress;
 mod reference;
 mod regions;

@@ -42,6 +42,9 @@ pub struct GridCell {
     pub row: usize,
     pub column: usize,
     pub file: String,
+    /// Mean luminance Y of the pixels that see the grid's material (none when none does).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material_mean_y: Option<f64>,
 }
 
 /// Most budgets of one mode, grid cells, variants and regions a stored run may list.

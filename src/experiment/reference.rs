@@ -83,6 +83,7 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
         threads: s.cfg.threads,
         time_limit: None,
         progress: false,
+        spectral: None,
     };
     let b = bar.clone();
     let mut cb = move |_: &crate::film::Film, _: &crate::integrator::Stats, _: f64| {
@@ -133,6 +134,7 @@ pub fn render_shard(
         threads: s.cfg.threads,
         time_limit: None,
         progress: true,
+        spectral: None,
     };
     let out = render(&s.scene, kind, &r.options, &settings, None)
         .map_err(|e| Error::runtime(format!("reference: {e}")))?;

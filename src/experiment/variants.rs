@@ -84,6 +84,7 @@ impl Runs<'_> {
             threads: cfg.threads,
             time_limit: None,
             progress: false,
+            spectral: None,
         };
         let mut snap = Snapshots {
             runs: self,

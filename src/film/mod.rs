@@ -3,6 +3,7 @@
 
 pub mod output;
 pub mod shard;
+pub mod spectral;
 pub mod text;
 
 use glam::Vec3;
@@ -21,6 +22,8 @@ pub struct Film {
     /// Named auxiliary layers (e.g. one per BDPT strategy), same normalisation as the image.
     pub aux_names: Vec<String>,
     pub aux: Vec<Vec<[f64; 3]>>,
+    /// The spectral image, when one is made.
+    pub spectral: Option<spectral::SpectralFilm>,
 }
 
 impl Film {
@@ -34,6 +37,7 @@ impl Film {
             splat: vec![[0.0; 3]; n],
             aux: aux_names.iter().map(|_| vec![[0.0; 3]; n]).collect(),
             aux_names,
+            spectral: None,
         }
     }
 

@@ -10,6 +10,7 @@ pub mod render;
 
 pub use render::{RenderOutput, RenderSettings, check, render, shard_info, with_threads};
 
+use crate::film::spectral::SpectralBins;
 use crate::material::WavelengthSampling;
 use crate::medium::Tracking;
 pub use crate::scene::LightWavelengths;
@@ -91,6 +92,19 @@ impl MisHeuristic {
     }
 }
 
+/// How pt-hero weights its lanes in media, where each lane's distance pdf differs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LaneWeighting {
+    /// The balance heuristic over every lane's path pdf, distance decisions included
+    /// (docs/design.md §4): lane j is weighted by 1 / Σ_k p(λ_k)·r_k.
+    #[default]
+    Balance,
+    /// Mojzík's HWSS (§6.2): the hero's distance decisions alone, every lane weighted by
+    /// 1 / Σ_k p(λ_k) as without media; each lane keeps its own f / p_hero.
+    Hero,
+}
+
 /// Options shared by the integrators; each integrator reads the ones it needs. In experiment
 /// configs these are the variant's `options` object.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -110,6 +124,8 @@ pub struct IntegratorOptions {
     pub rr_depth: Option<u32>,
     /// Distance tracking in participating media.
     pub tracking: Tracking,
+    /// Lane weighting of pt-hero in media.
+    pub lane_weighting: LaneWeighting,
     /// Accumulate one image per BDPT strategy (s, t).
     pub strategy_images: bool,
 }
@@ -126,6 +142,7 @@ impl Default for IntegratorOptions {
             bin_width: 5.0,
             rr_depth: None,
             tracking: Tracking::Aware,
+            lane_weighting: LaneWeighting::Balance,
             strategy_images: false,
         }
     }
@@ -293,6 +310,18 @@ pub struct SampleSink<'a> {
     pub stats: &'a mut Stats,
     /// The pixel this sample belongs to (index), for auxiliary layers.
     pub pixel: u32,
+    /// The spectral image, when one is made (`--spectral`).
+    pub spectral: Option<SpectralSink<'a>>,
+}
+
+/// Where one pixel sample's spectral radiance samples go: its own pixel's bins, and light-tracing
+/// splats as (pixel, bin, value).
+pub struct SpectralSink<'a> {
+    pub bins: SpectralBins,
+    /// 1 / the bins' width: a sample at λ of value v adds v / Δλ to λ's bin.
+    pub inv_width: f32,
+    pub own: &'a mut [f64],
+    pub splats: &'a mut Vec<(u32, u32, f32)>,
 }
 
 impl SampleSink<'_> {
@@ -321,6 +350,34 @@ impl SampleSink<'_> {
             true
         } else {
             false
+        }
+    }
+
+    /// Add the spectral radiance sample `v` at camera wavelength λ to the sample's pixel in the
+    /// spectral image (nothing without one). Call it with the values whose XYZ was accepted.
+    #[inline]
+    pub fn spectral(&mut self, l: f32, v: f32) {
+        if let Some(sp) = &mut self.spectral
+            && let Some(b) = sp.bins.bin(l)
+            && v.is_finite()
+        {
+            sp.own[b] += (v * sp.inv_width) as f64;
+        }
+    }
+
+    /// [`SampleSink::spectral`] for a light-tracing splat at film position (x, y).
+    #[inline]
+    pub fn spectral_splat(&mut self, x: f32, y: f32, l: f32, v: f32) {
+        if let Some(sp) = &mut self.spectral
+            && let Some(b) = sp.bins.bin(l)
+            && v.is_finite()
+            && x >= 0.0
+            && y >= 0.0
+            && x < self.width as f32
+            && y < self.height as f32
+        {
+            let pixel = y as u32 * self.width + x as u32;
+            sp.splats.push((pixel, b as u32, v * sp.inv_width));
         }
     }
 

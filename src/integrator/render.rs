@@ -1,8 +1,11 @@
 //! The render loop: passes of one sample per pixel, rows in parallel (rayon), accumulated in a
 //! fixed order so the image is the same for a given seed whatever the thread count.
 
-use super::{Integrator, IntegratorKind, IntegratorOptions, SampleSink, Sampler, Splats, Stats};
+use super::{
+    Integrator, IntegratorKind, IntegratorOptions, SampleSink, Sampler, SpectralSink, Splats, Stats,
+};
 use crate::film::Film;
+use crate::film::spectral::{SpectralBins, SpectralFilm};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -23,6 +26,8 @@ pub struct RenderSettings {
     pub time_limit: Option<f64>,
     /// Show a progress bar (on a terminal only).
     pub progress: bool,
+    /// Also make a spectral image of this many bins over the camera's range (`--spectral`).
+    pub spectral: Option<usize>,
 }
 
 impl Default for RenderSettings {
@@ -34,6 +39,7 @@ impl Default for RenderSettings {
             threads: None,
             time_limit: None,
             progress: false,
+            spectral: None,
         }
     }
 }
@@ -73,6 +79,14 @@ pub fn render(
     on_pass: Option<&mut PassCallback>,
 ) -> Result<RenderOutput, String> {
     opts.validate()?;
+    if settings.spectral.is_some() && kind == IntegratorKind::BdptAllbins {
+        return Err(
+            "bdpt-allbins cannot make a spectral image: it carries the camera's three CIE \
+             importance rows through the path, not per-bin radiance (use bdpt-forward, \
+             bdpt-backward, pt-hero or pt-mono)"
+                .into(),
+        );
+    }
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
         if let Some(t) = settings.threads {
@@ -196,6 +210,8 @@ struct RowResult {
     splats: Splats,
     aux: Vec<(u16, u32, Vec3)>,
     stats: Stats,
+    /// Spectral light-tracing splats (pixel, bin, value).
+    spectral_splats: Vec<(u32, u32, f32)>,
 }
 
 impl RowResult {
@@ -204,6 +220,7 @@ impl RowResult {
             splats: Splats::new(width, height),
             aux: Vec::new(),
             stats: Stats::default(),
+            spectral_splats: Vec::new(),
         }
     }
 
@@ -211,6 +228,7 @@ impl RowResult {
     fn clear(&mut self) {
         self.splats.clear();
         self.aux.clear();
+        self.spectral_splats.clear();
         let mut by_length = std::mem::take(&mut self.stats.contributing_by_length);
         by_length.clear();
         self.stats = Stats {
@@ -227,19 +245,33 @@ fn pass_rows<I: Integrator>(
     scene: &Scene,
     integrator: &I,
     (seed, s): (u64, u32),
-    sum: &mut [[f64; 3]],
+    (sum, spectral): (&mut [[f64; 3]], Option<&mut SpectralFilm>),
     rows: &mut [RowResult],
     scratches: &Scratches<I::Scratch>,
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
+    // The spectral image's rows beside the film's (empty rows without one).
+    let (bins, spectral_rows) = match spectral {
+        Some(f) => (Some(f.bins), f.sum.as_mut_slice()),
+        None => (None, &mut [][..]),
+    };
+    let per_row = bins.map_or(0, |b| b.n * w as usize);
+    let mut empty: Vec<&mut [f64]> = Vec::new();
+    let spectral_rows: Vec<&mut [f64]> = if per_row > 0 {
+        spectral_rows.chunks_mut(per_row).collect()
+    } else {
+        empty.extend((0..h).map(|_| &mut [][..]));
+        empty
+    };
     // One row per job: a thread that runs out steals single rows, so both threads stay busy to
     // the end of the pass (rayon's default leaves run up to a quarter of the rows in one piece,
     // which the other thread can only wait for).
     sum.par_chunks_mut(w as usize)
         .zip(rows.par_iter_mut())
+        .zip(spectral_rows.into_par_iter())
         .enumerate()
         .with_max_len(1)
-        .for_each(|(y, (film_row, r))| {
+        .for_each(|(y, ((film_row, r), spectral_row))| {
             let mut scratch = scratches.get();
             let scratch = &mut *scratch;
             let y = y as u32;
@@ -248,6 +280,15 @@ fn pass_rows<I: Integrator>(
                 let pixel = y * w + x;
                 let mut sampler = Sampler::new(seed, pixel as u64, s as u64);
                 let (jx, jy) = (sampler.next(), sampler.next());
+                let spectral = bins.map(|bins| {
+                    let n = bins.n;
+                    SpectralSink {
+                        bins,
+                        inv_width: 1.0 / bins.width(),
+                        own: &mut spectral_row[x as usize * n..(x as usize + 1) * n],
+                        splats: &mut r.spectral_splats,
+                    }
+                });
                 let mut sink = SampleSink {
                     value: Vec3::ZERO,
                     width: w,
@@ -256,6 +297,7 @@ fn pass_rows<I: Integrator>(
                     aux: &mut r.aux,
                     stats: &mut r.stats,
                     pixel,
+                    spectral,
                 };
                 sink.stats.paths += 1;
                 let (fx, fy) = (x as f32 + jx, y as f32 + jy);
@@ -290,11 +332,23 @@ fn add_splats(splat: &mut [[f64; 3]], rows: &[RowResult], width: u32) {
         });
 }
 
-/// Add the strategy-image values and the statistics of one pass's rows, in row order.
-fn add_aux(aux: &mut [Vec<[f64; 3]>], rows: &[RowResult], stats: &mut Stats) {
+/// Add the strategy-image values, the spectral splats and the statistics of one pass's rows, in
+/// row order.
+fn add_aux(
+    aux: &mut [Vec<[f64; 3]>],
+    mut spectral: Option<&mut SpectralFilm>,
+    rows: &[RowResult],
+    stats: &mut Stats,
+) {
     for r in rows {
         for (l, p, v) in &r.aux {
             Film::add(&mut aux[*l as usize][*p as usize], *v);
+        }
+        if let Some(f) = spectral.as_deref_mut() {
+            let n = f.bins.n;
+            for (p, b, v) in &r.spectral_splats {
+                f.sum[*p as usize * n + *b as usize] += *v as f64;
+            }
         }
         stats.merge(&r.stats);
     }
@@ -309,6 +363,10 @@ pub fn run<I: Integrator>(
 ) -> Result<RenderOutput, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut film = Film::new(w, h, integrator.aux_layers());
+    if let Some(n) = settings.spectral {
+        let bins = SpectralBins::new(scene.observer.range, n)?;
+        film.spectral = Some(SpectralFilm::new(bins, (w * h) as usize));
+    }
     // Two sets of row results: a pass's splats are added to the film while the next pass
     // renders into the other set (the adding scales poorly and would otherwise keep one thread
     // waiting at the end of every pass); each pixel still receives them pass by pass, in order.
@@ -345,18 +403,26 @@ pub fn run<I: Integrator>(
         })?;
     for s in settings.first_sample..end {
         let Film {
-            sum, splat, aux, ..
+            sum,
+            splat,
+            aux,
+            spectral,
+            ..
         } = &mut film;
         let seed = settings.seed;
+        let spectral_film = spectral.as_mut();
         rayon::join(
-            || pass_rows(scene, integrator, (seed, s), sum, &mut rows, &scratches),
+            || {
+                let film = (sum.as_mut_slice(), spectral_film);
+                pass_rows(scene, integrator, (seed, s), film, &mut rows, &scratches)
+            },
             || {
                 if pending {
                     add_splats(splat, &done, w);
                 }
             },
         );
-        add_aux(aux, &rows, &mut stats);
+        add_aux(aux, spectral.as_mut(), &rows, &mut stats);
         std::mem::swap(&mut rows, &mut done);
         pending = true;
         film.spp += 1;

@@ -17,6 +17,7 @@ use super::spectra::SpectrumContext;
 use super::{InputError, NONE, PrimInfo, Scene, ShapeInfo};
 use crate::geometry::{Accel, Camera, Sphere, Triangle};
 use crate::material::{Bbrrdf, FluorescentDiffuse, Lambert, Material, Reradiation};
+use crate::spectrum::cie::Sensor;
 use crate::spectrum::{DEFAULT_DOMAIN, Domain, Observer, Spectrum};
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap};
@@ -28,14 +29,6 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
     let (f, shape_descs) = format::read(path, text)?;
     let mut warnings = Vec::new();
     let domain = domain(path, f.domain)?;
-    let observer = Observer::new(domain);
-    if observer.range.width() <= 0.0 {
-        return Err(at(
-            path,
-            "domain",
-            "does not overlap the observer's 360–830 nm".into(),
-        ));
-    }
     let camera = camera(path, &f.camera)?;
 
     // Spectra and materials.
@@ -46,6 +39,15 @@ pub fn scene(path: &Path, text: &str) -> Result<Scene, InputError> {
         domain,
     };
     ctx.add_named(&f.spectra)?;
+    let sensor = sensor(&ctx, f.camera.sensor.as_ref())?;
+    let observer = Observer::with_sensor(domain, &sensor).map_err(|m| {
+        let field = if sensor == Sensor::Cie1931 {
+            "domain"
+        } else {
+            "camera.sensor"
+        };
+        at(path, field, m)
+    })?;
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     for (name, v) in &f.materials {
@@ -860,6 +862,48 @@ fn box_triangles(lo: Vec3, hi: Vec3) -> Vec<Triangle> {
             ]
         })
         .collect()
+}
+
+/// The camera's `sensor`: absent or `"cie-1931"`, `{"band": [lo, hi]}` (nm, lo < hi) or
+/// `{"response": SPECTRUM}` (any spectrum the scene format takes).
+fn sensor(ctx: &SpectrumContext, v: Option<&serde_json::Value>) -> Result<Sensor, InputError> {
+    use serde_json::Value;
+    const FIELD: &str = "camera.sensor";
+    let err = |field: &str, m: &str| Err(InputError::new(ctx.file, field, m.to_string()));
+    let Some(v) = v else {
+        return Ok(Sensor::Cie1931);
+    };
+    match v {
+        Value::String(s) if s == "cie-1931" => Ok(Sensor::Cie1931),
+        Value::Object(o) if o.len() == 1 && o.contains_key("band") => {
+            let band = &o["band"];
+            let pair = band.as_array().and_then(|a| {
+                let lo = a.first()?.as_f64()?;
+                let hi = a.get(1)?.as_f64()?;
+                (a.len() == 2).then_some((lo as f32, hi as f32))
+            });
+            match pair {
+                Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo < hi => {
+                    Ok(Sensor::Response(Spectrum::Box { lo, hi, value: 1.0 }))
+                }
+                Some((lo, hi)) => err(
+                    "camera.sensor.band",
+                    &format!("needs finite wavelengths lo < hi in nm, got [{lo}, {hi}]"),
+                ),
+                None => err(
+                    "camera.sensor.band",
+                    "must be two wavelengths in nm, [lo, hi]",
+                ),
+            }
+        }
+        Value::Object(o) if o.len() == 1 && o.contains_key("response") => Ok(Sensor::Response(
+            ctx.parse(&o["response"], "camera.sensor.response")?,
+        )),
+        _ => err(
+            FIELD,
+            "must be \"cie-1931\", {\"band\": [lo, hi]} or {\"response\": SPECTRUM}",
+        ),
+    }
 }
 
 #[cfg(test)]

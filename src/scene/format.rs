@@ -81,6 +81,10 @@ pub struct CameraDesc {
     /// The medium the camera sits in (none: vacuum).
     #[serde(default)]
     pub medium: Option<String>,
+    /// What the camera integrates: `"cie-1931"` (the default), `{"band": [lo, hi]}` or
+    /// `{"response": SPECTRUM}`; read by `build.rs`.
+    #[serde(default)]
+    pub sensor: Option<serde_json::Value>,
 }
 
 fn default_up() -> [f32; 3] {

@@ -79,15 +79,35 @@ pub fn cmf4(l: Vec4) -> [Vec4; 3] {
     ]
 }
 
+/// What the camera integrates: the CIE 1931 observer, or a sensor with one spectral response.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Sensor {
+    /// The CIE 1931 2° colour-matching functions: the image is XYZ.
+    Cie1931,
+    /// One response curve r(λ) (a band is a box): the image is grey, every sRGB channel
+    /// ∫ L r dλ / ∫ r dλ, so a constant spectral radiance of 1 gives 1.
+    Response(Spectrum),
+}
+
 /// The observer restricted to a camera range, with its normalisation.
 #[derive(Clone, Debug)]
 pub struct Observer {
-    /// Camera range: the scene domain intersected with the CMF table range.
+    /// Camera range: the scene domain intersected with the sensor's support (for the CIE
+    /// observer, its 360–830 nm table).
     pub range: Domain,
-    /// 1 / ∫ ȳ dλ over `range`.
+    /// 1 / ∫ ȳ dλ over `range` (a sensor: 1 / ∫ r dλ).
     pub inv_y_integral: f32,
-    /// Distribution ∝ x̄ + ȳ + z̄ for `--camera-wavelengths cmf`.
+    /// Distribution ∝ x̄ + ȳ + z̄ (a sensor: ∝ r) for `--camera-wavelengths cmf`.
     cmf_dist: Distribution1D,
+    /// The response curve of a sensor other than the CIE observer.
+    response: Option<Spectrum>,
+}
+
+/// XYZ of the D65 white with Y = 1: the linear sRGB (1, 1, 1), so a sensor's grey image reads
+/// the same value in every channel.
+pub fn grey_xyz() -> Vec3 {
+    static G: OnceLock<Vec3> = OnceLock::new();
+    *G.get_or_init(|| xyz_to_srgb_matrix().inverse() * Vec3::ONE)
 }
 
 impl Observer {
@@ -99,13 +119,82 @@ impl Observer {
             range,
             inv_y_integral: (1.0 / y) as f32,
             cmf_dist: Distribution1D::from_spectrum(&sum, range, 1.0),
+            response: None,
+        }
+    }
+
+    /// The observer of `sensor` over the scene's `domain`; an error when the sensor sees nothing
+    /// there (the message is for the scene's `camera.sensor`).
+    pub fn with_sensor(domain: Domain, sensor: &Sensor) -> Result<Self, String> {
+        let r = match sensor {
+            Sensor::Cie1931 => {
+                let o = Observer::new(domain);
+                if o.range.width() <= 0.0 {
+                    return Err(format!(
+                        "the CIE observer's 360–830 nm do not overlap the scene's domain \
+                         [{}, {}] nm",
+                        domain.min, domain.max
+                    ));
+                }
+                return Ok(o);
+            }
+            Sensor::Response(r) => r,
+        };
+        let range = domain.intersect(&support(r));
+        let integral = if range.width() > 0.0 {
+            integrate(|l| r.eval(l), range)
+        } else {
+            0.0
+        };
+        if !(integral > 0.0 && integral.is_finite()) {
+            return Err(format!(
+                "the sensor's response is zero over the scene's domain [{}, {}] nm",
+                domain.min, domain.max
+            ));
+        }
+        Ok(Observer {
+            range,
+            inv_y_integral: (1.0 / integral) as f32,
+            cmf_dist: Distribution1D::from_spectrum(r, range, 1.0),
+            response: Some(r.clone()),
+        })
+    }
+
+    /// Whether this is the CIE 1931 observer.
+    pub fn is_cie(&self) -> bool {
+        self.response.is_none()
+    }
+
+    /// The camera's response at λ before normalisation: (x̄, ȳ, z̄), or a sensor's r(λ) times
+    /// [`grey_xyz`].
+    #[inline]
+    pub fn response(&self, l: f32) -> Vec3 {
+        match &self.response {
+            None => cmf(l),
+            Some(r) => {
+                if self.range.contains(l) {
+                    grey_xyz() * r.eval(l)
+                } else {
+                    Vec3::ZERO
+                }
+            }
+        }
+    }
+
+    /// [`Observer::response`] at every lane, as the x, y and z of the lanes.
+    #[inline(always)]
+    pub fn response_lanes<L: super::Lanes>(&self, lambda: L, n: usize) -> [L; 3] {
+        if self.response.is_none() {
+            lambda.cmf(n)
+        } else {
+            L::from_fn3(n, |j| self.response(lambda.lane(j)))
         }
     }
 
     /// Weight turning a radiance sample at λ into XYZ: cmf(λ) / ∫ȳ (divide by the λ pdf too).
     #[inline]
     pub fn xyz_weight(&self, l: f32) -> Vec3 {
-        cmf(l) * self.inv_y_integral
+        self.response(l) * self.inv_y_integral
     }
 
     /// Sample a camera wavelength; returns (λ, pdf).
@@ -138,7 +227,7 @@ impl Observer {
         for i in 0..n {
             let l = self.range.min + ((i as f64 + 0.5) * h) as f32;
             let v = f(l);
-            let c = cmf(l);
+            let c = self.response(l);
             acc[0] += v * c.x as f64;
             acc[1] += v * c.y as f64;
             acc[2] += v * c.z as f64;
@@ -179,6 +268,17 @@ fn cmf_sum_spectrum() -> Spectrum {
         xs: (0..471).map(|i| 360.0 + i as f32).collect(),
         ys: t.xyz.iter().map(|v| v.x + v.y + v.z).collect(),
     }
+}
+
+/// Where a response curve can be non-zero (unbounded for a constant or a Gaussian).
+fn support(r: &Spectrum) -> Domain {
+    let (min, max) = match r {
+        Spectrum::Constant(_) | Spectrum::Gaussian { .. } => (f32::NEG_INFINITY, f32::INFINITY),
+        Spectrum::Box { lo, hi, .. } => (*lo, *hi),
+        Spectrum::Tabulated { xs, .. } => (xs[0], xs[xs.len() - 1]),
+        Spectrum::Binned { lo, width, values } => (*lo, lo + width * values.len() as f32),
+    };
+    Domain { min, max }
 }
 
 /// ∫ f over a domain with a 0.1 nm midpoint rule in f64.

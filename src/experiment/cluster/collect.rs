@@ -260,7 +260,7 @@ impl Collect<'_> {
                 }
             }
         }
-        let cells = self.grid(dir, &mine)?;
+        let cells = self.grid(s, dir, &mine)?;
         let info = run_info(
             s,
             reference.is_some(),
@@ -321,8 +321,14 @@ impl Collect<'_> {
         Ok(Some(img))
     }
 
-    /// Copy the grid cells' images into `dir/grid/`.
-    fn grid(&self, dir: &Path, mine: &[(&Job, &JobRecord)]) -> Result<Vec<GridCell>, Error> {
+    /// Copy the grid cells' images into `dir/grid/`, with each cell's mean over the grid's
+    /// material and `grid.csv` as a run on one machine writes them.
+    fn grid(
+        &self,
+        s: &Setup,
+        dir: &Path,
+        mine: &[(&Job, &JobRecord)],
+    ) -> Result<Vec<GridCell>, Error> {
         let mut cells = Vec::new();
         for (j, r) in mine {
             if let Work::GridCell { row, column } = j.work {
@@ -333,8 +339,24 @@ impl Collect<'_> {
                     .ok_or_else(|| self.unplanned(&format!("grid cell ({row}, {column})")))?;
                 mkdir(&dir.join("grid"))?;
                 copy(&job_dir(self.run_dir, j).join(&file), &dir.join(&file))?;
-                cells.push(GridCell { row, column, file });
+                let (g, rgb) = (s.cfg.grid.as_ref(), read_exr(&dir.join(&file)));
+                let material_mean_y = match (g, rgb) {
+                    (Some(g), Ok((_, _, rgb))) => {
+                        super::super::grid::material_mean_y(&s.scene, &g.material, &rgb)
+                    }
+                    _ => None,
+                };
+                cells.push(GridCell {
+                    row,
+                    column,
+                    file,
+                    material_mean_y,
+                });
             }
+        }
+        if let Some(g) = s.cfg.grid.as_ref().filter(|_| !cells.is_empty()) {
+            let csv = super::super::grid::cells_csv(g, &cells);
+            write_text(&dir.join("grid.csv"), &csv)?;
         }
         Ok(cells)
     }

@@ -133,3 +133,51 @@ pub fn difference(f: &Final, d: &Difference, fig: &Path) -> Result<Vec<PathBuf>,
     };
     write_sheet(&sheet, fig, "difference", "difference")
 }
+
+/// A signed difference sheet of two images outside a run (`stokes diff`): `a`, `b` and the
+/// luminance of `a` minus that of `b`, written as `<dir>/<stem>.png` (and `.svg`). Returns the
+/// paths and the scale (the 99th percentile of |difference|).
+pub fn difference_of_images(
+    (a_name, a): (&str, &[Vec3]),
+    (b_name, b): (&str, &[Vec3]),
+    (w, h): (u32, u32),
+    title: &str,
+    (dir, stem): (&Path, &str),
+) -> Result<(Vec<PathBuf>, f64), Error> {
+    let diff: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| luminance(*x) - luminance(*y))
+        .collect();
+    let m = robust_max(&diff);
+    let not_finite = diff.iter().any(|x| !x.is_finite());
+    let zoom = zoom_for(w, h, MIN_TILE);
+    check_size("difference", 3 * (w * zoom) as u64, (h * zoom) as u64)?;
+    let k = exposure(b);
+    let row = SheetRow {
+        label: vec![],
+        tiles: vec![
+            Some(tile(w, h, zoom, |x, y| {
+                to_srgb8(a[(y * w + x) as usize], k)
+            })),
+            Some(tile(w, h, zoom, |x, y| {
+                to_srgb8(b[(y * w + x) as usize], k)
+            })),
+            Some(tile(w, h, zoom, |x, y| {
+                diverging_colour(diff[(y * w + x) as usize], m)
+            })),
+        ],
+        captions: vec![a_name.into(), b_name.into(), format!("scale ±{}", tick(m))],
+        bar: Some(bar(a_name, b_name, m, not_finite)),
+    };
+    let sheet = Sheet {
+        title: vec![
+            title.to_string(),
+            "luminance; one exposure for both images".into(),
+        ],
+        columns: vec![a_name.into(), b_name.into(), format!("{a_name} − {b_name}")],
+        tile: (w * zoom, h * zoom),
+        rows: vec![row],
+    };
+    Ok((write_sheet(&sheet, dir, stem, "difference")?, m))
+}

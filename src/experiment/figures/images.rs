@@ -171,6 +171,9 @@ pub fn crops(f: &Final, c: Crop, fig: &Path) -> Result<Vec<PathBuf>, Error> {
     write_sheet(&sheet, fig, "crops", "crops")
 }
 
+/// Widest row of parameter-grid tiles, pixels, before the tiles are averaged down.
+const GRID_WIDTH: u32 = 1024;
+
 /// The parameter grid: one cell per (row value, column value), one exposure for all.
 pub fn parameter_grid(
     info: &RunInfo,
@@ -178,9 +181,13 @@ pub fn parameter_grid(
     cells: &[(usize, usize, Vec<Vec3>)],
     fig: &Path,
 ) -> Result<Vec<PathBuf>, Error> {
-    let (w, h) = (info.width, info.height);
-    let zoom = zoom_for(w, h, MIN_TILE);
     let (nr, nc) = (g.rows.values.len(), g.columns.values.len());
+    // Tiles averaged down (s × s boxes, linear values) so that a row of them is at most
+    // GRID_WIDTH pixels: a 6 × 6 grid of 256² cells would be a 5 MB PNG of noise.
+    let s = (nc as u32 * info.width).div_ceil(GRID_WIDTH).max(1);
+    let (w, h) = (info.width / s, info.height / s);
+    let (w, h) = (w.max(1), h.max(1));
+    let zoom = zoom_for(w, h, MIN_TILE);
     precheck("parameter grid", nc, nr, (w * zoom, h * zoom))?;
     // One exposure for the whole grid so the cells compare.
     let all: Vec<Vec3> = cells.iter().flat_map(|c| c.2.iter().copied()).collect();
@@ -195,9 +202,22 @@ pub fn parameter_grid(
             ..Default::default()
         })
         .collect();
+    let full_w = info.width;
     for (r, c, px) in cells {
+        let shrunk: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                let (x0, y0) = ((i % w) * s, (i / w) * s);
+                let mut acc = Vec3::ZERO;
+                for y in y0..y0 + s {
+                    for x in x0..x0 + s {
+                        acc += px[(y * full_w + x) as usize];
+                    }
+                }
+                acc / (s * s) as f32
+            })
+            .collect();
         rows[*r].tiles[*c] = Some(tile(w, h, zoom, |x, y| {
-            to_srgb8(px[(y * w + x) as usize], k)
+            to_srgb8(shrunk[(y * w + x) as usize], k)
         }));
     }
     let budget = info.modes.first().map(|m| {

@@ -261,7 +261,10 @@ fn wavelength_pdfs(
 }
 
 /// A connection's contribution: XYZ, and the film position for light tracing.
-pub type Contribution = (glam::Vec3, Option<(f32, f32)>);
+///
+/// The third element is (λ0, w · f / p): the spectral radiance sample behind the XYZ value, for
+/// spectral images.
+pub type Contribution = (glam::Vec3, Option<(f32, f32)>, (f32, f32));
 
 /// The CIE weight at λ0, kept in `last` for the next connection (most connections of a sample
 /// share λ0).
@@ -316,6 +319,7 @@ pub(super) fn splat_position(scene: &Scene, x0: &Vertex, x1: &Vertex) -> Option<
 #[inline(always)]
 pub(super) fn weighted(
     xyz_w: glam::Vec3,
+    lambda0: f32,
     wfp: f64,
     splat: Option<(f32, f32)>,
     stats: &mut Stats,
@@ -325,7 +329,7 @@ pub(super) fn weighted(
         stats.nan_inf_rejected += !c.is_finite() as u64;
         return None;
     }
-    Some((xyz_w * c, splat))
+    Some((xyz_w * c, splat, (lambda0, c)))
 }
 
 /// Index of the strategy image of (s, t): ordered by k = s + t, then s.
@@ -420,8 +424,8 @@ impl Bdpt {
         } else {
             self.connect_full(scene, s, t, sampler, scratch, sink.stats)
         };
-        if let Some((xyz, splat)) = c {
-            self.deliver(s, t, xyz, splat, sink);
+        if let Some(c) = c {
+            self.deliver(s, t, c, sink);
         }
     }
 
@@ -514,23 +518,20 @@ impl Bdpt {
             return None;
         };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), turned into XYZ with the CIE weight at λ0
-        weighted(xyz_w, w * f / p, splat, stats)
+        weighted(xyz_w, path.lambda[0], w * f / p, splat, stats)
     }
 
     /// Add the contribution `xyz` of strategy (s, t) to the pixel, or splat it at `splat` (light
     /// tracing), and to its strategy image.
     #[inline]
-    fn deliver(
-        &self,
-        s: usize,
-        t: usize,
-        xyz: glam::Vec3,
-        splat: Option<(f32, f32)>,
-        sink: &mut SampleSink,
-    ) {
+    fn deliver(&self, s: usize, t: usize, c: Contribution, sink: &mut SampleSink) {
+        let (xyz, splat, (lambda0, radiance)) = c;
         let ok = match splat {
             Some((px, py)) => {
                 let ok = sink.splat(px, py, xyz);
+                if ok {
+                    sink.spectral_splat(px, py, lambda0, radiance);
+                }
                 if ok && self.strategy_images {
                     let pix = (py as u32).min(sink.height - 1) * sink.width
                         + (px as u32).min(sink.width - 1);
@@ -540,6 +541,9 @@ impl Bdpt {
             }
             None => {
                 let ok = sink.add(xyz);
+                if ok {
+                    sink.spectral(lambda0, radiance);
+                }
                 if ok && self.strategy_images {
                     sink.aux(strategy_layer(s, t), sink.pixel, xyz);
                 }

@@ -404,7 +404,7 @@ impl Bdpt {
         }
         let w = if self.only.is_some() { 1.0 } else { w };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), in XYZ with the CIE weight at λ0 = λ*
-        weighted(xyz_w, w * f / p, splat, stats)
+        weighted(xyz_w, l, w * f / p, splat, stats)
     }
 }
 

@@ -15,7 +15,7 @@
 
 use crate::geometry::Ray;
 use crate::geometry::ray::{cross_boundary_ray, spawn_ray};
-use crate::integrator::{IntegratorOptions, MisHeuristic, SampleSink, Sampler};
+use crate::integrator::{IntegratorOptions, LaneWeighting, MisHeuristic, SampleSink, Sampler};
 use crate::material::{Bbrrdf, Material, PathSide, ShiftSampling};
 use crate::medium::Tracking;
 use crate::scene::{Interaction, MediumInterface, NONE, Scene};
@@ -40,6 +40,8 @@ pub struct Walk {
     pub mis: MisHeuristic,
     pub rr_depth: Option<u32>,
     pub tracking: Tracking,
+    /// Mojzík's HWSS: lanes weighted without their distance pdfs (`LaneWeighting::Hero`).
+    pub hero_distances: bool,
 }
 
 impl Walk {
@@ -53,6 +55,7 @@ impl Walk {
             mis: o.mis,
             rr_depth: o.rr_depth,
             tracking: o.tracking,
+            hero_distances: o.lane_weighting == LaneWeighting::Hero,
         }
     }
 
@@ -129,7 +132,7 @@ impl Walk {
                 match travel(m, &ray, t_max, s.lambda, n, self.tracking, false, &mut u) {
                     Travel::Collision { t, factor, ratio } => {
                         s.beta *= factor;
-                        s.ratio *= ratio;
+                        s.track(ratio, self.hero_distances);
                         depth += 1;
                         if depth >= self.max_depth {
                             break;
@@ -149,7 +152,7 @@ impl Walk {
                         pass,
                     } => {
                         s.beta *= factor;
-                        s.ratio *= ratio;
+                        s.track(ratio, self.hero_distances);
                         s.pass *= pass;
                     }
                 }
@@ -200,10 +203,15 @@ impl Walk {
             }
         }
         let r = s.radiance;
-        // Colour-matching weights of the camera lanes.
-        let [wx, wy, wz] = wl.lambda.cmf(n);
+        // Colour-matching weights (or the sensor's response) of the camera lanes.
+        let [wx, wy, wz] = obs.response_lanes(wl.lambda, n);
         let xyz = Vec3::new(r.dot(wx), r.dot(wy), r.dot(wz)) * (obs.inv_y_integral / pdf_sum);
-        sink.add(xyz);
+        if sink.add(xyz) && sink.spectral.is_some() {
+            // the spectral image: each lane's radiance at its own wavelength
+            for j in 0..n {
+                sink.spectral(wl.lambda.lane(j), r.lane(j) / pdf_sum);
+            }
+        }
     }
 
     /// Scatter at the surface `it` (direction back `wo`): the lanes' wavelengths, next-event
@@ -501,6 +509,17 @@ impl<L: Lanes> PathState<L> {
             prev_p: origin,
             medium,
             segments: 0,
+        }
+    }
+
+    /// A stretch of medium whose lanes' distance pdfs over the hero's are `ratio`. Mojzík's HWSS
+    /// (`hero`) leaves them out of the lane weights: each lane keeps its own f / p_hero, which is
+    /// unbiased wherever the hero's distance pdf is positive, and every lane's weight
+    /// p(λ_j) / Σ_k p(λ_k) still sums to one over the rotations.
+    #[inline(always)]
+    fn track(&mut self, ratio: L, hero: bool) {
+        if !hero {
+            self.ratio *= ratio;
         }
     }
 

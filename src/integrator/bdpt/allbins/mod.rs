@@ -22,7 +22,6 @@ use crate::material::Bbrrdf;
 use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
-use crate::spectrum::cie::cmf;
 use crate::transport::segment::{self, grey_distance_pdf};
 use crate::transport::{self, Segment, Stretch, VertexKind, transmittance};
 use binops::SupportedOp;
@@ -119,8 +118,8 @@ pub struct Scratch {
     conn_st: Vec<Stretch>,
 }
 
-/// The camera importance rows for a grid: bin average of each CMF times the bin width, over
-/// ∫ȳ (Jung eq. 4.41 discretised with the rectangle rule).
+/// The camera importance rows for a grid: bin average of each CMF (or the sensor's response)
+/// times the bin width, over ∫ȳ (Jung eq. 4.41 discretised with the rectangle rule).
 pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
     let n = grid.len();
     let mut w = vec![0.0f32; 3 * n];
@@ -135,7 +134,7 @@ pub fn camera_rows(scene: &Scene, grid: &BinGrid) -> Vec<f32> {
         let h = (hi - lo) as f64 / m as f64;
         let mut acc = [0.0f64; 3];
         for k in 0..m {
-            let c = cmf(lo + ((k as f64 + 0.5) * h) as f32);
+            let c = scene.observer.response(lo + ((k as f64 + 0.5) * h) as f32);
             acc[0] += c.x as f64;
             acc[1] += c.y as f64;
             acc[2] += c.z as f64;
