@@ -401,3 +401,80 @@ fn bad_sensors_and_spectral_options_are_named() {
     assert!(!dir.join("x.exr").exists(), "an error left an image behind");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// An experiment config's `spectral` writes each variant's final image of repeat 0 as a spectral
+/// EXR beside its RGB one, with the closed form of the Lambert furnace in every bin; a
+/// bdpt-allbins variant or a bin count out of range is an input error naming `spectral`.
+#[test]
+fn experiment_spectral_option_writes_the_variants_spectral_images() {
+    let dir = temp_dir("spectral-config");
+    let scene = repo().join("scenes/furnace-lambert.json");
+    let config = |spectral: serde_json::Value, second: &str| {
+        serde_json::json!({
+            "name": "sp",
+            "scene": scene,
+            "reference": { "integrator": "pt-hero", "spp": 16, "seed": 9 },
+            "variants": [
+                { "name": "mono", "integrator": "pt-mono" },
+                { "name": "second", "integrator": second }
+            ],
+            "budget": { "spp": [4, 16] },
+            "repeats": 2,
+            "threads": 1,
+            "spectral": spectral
+        })
+    };
+    let cfg = dir.join("sp.json");
+    std::fs::write(&cfg, config(6.into(), "bdpt-forward").to_string()).unwrap();
+    let out = dir.join("results");
+    let st = std::process::Command::new(bin())
+        .args(["experiment", s(&cfg), "--out", s(&out)])
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let latest = std::fs::read_to_string(out.join("sp/latest")).unwrap();
+    let images = out.join("sp").join(latest.trim()).join("images");
+    let mut spectral: Vec<String> = std::fs::read_dir(&images)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".spectral.exr"))
+        .collect();
+    spectral.sort();
+    assert_eq!(
+        spectral,
+        [
+            "mono__spp1__r0.spectral.exr",
+            "second__spp1__r0.spectral.exr"
+        ]
+    );
+    for f in &spectral {
+        let (channels, _) = read_channels(&images.join(f));
+        let bins: Vec<_> = channels
+            .iter()
+            .filter(|(n, _)| n.starts_with("S0."))
+            .collect();
+        assert_eq!(bins.len(), 6, "{f}");
+        for (name, v) in bins {
+            let (m, se) = mean_se(v.iter().map(|x| *x as f64));
+            assert!((m - 2.0).abs() < 5.0 * se + 1e-3, "{f} {name}: {m} ± {se}");
+        }
+    }
+    for (spectral, second, names) in [
+        (serde_json::json!(0), "pt-hero", vec!["spectral", "1–1024"]),
+        (
+            serde_json::json!(8),
+            "bdpt-allbins",
+            vec!["spectral", "bdpt-allbins", "second"],
+        ),
+    ] {
+        std::fs::write(&cfg, config(spectral, second).to_string()).unwrap();
+        let r = run_limited(&dir, &["experiment", s(&cfg), "--out", "bad"]);
+        expect_input_error(second, r, &names);
+        assert!(!dir.join("bad").exists(), "{second}: nothing is written");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

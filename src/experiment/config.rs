@@ -48,6 +48,10 @@ pub struct Config {
     /// A signed difference figure of two variants (Mojzík 2018 Fig. 11d/f).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub difference: Option<Difference>,
+    /// Also write each variant's final image of repeat 0 as a spectral EXR of this many bins
+    /// (`images/<name>__<mode><i>__r0.spectral.exr`, the layout of `stokes render --spectral`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectral: Option<usize>,
 }
 
 fn one() -> u32 {
@@ -274,7 +278,44 @@ impl Config {
         self.validate_reference(file)?;
         self.validate_budget(file)?;
         self.validate_rest(file)?;
-        self.validate_difference(file)
+        self.validate_difference(file)?;
+        self.validate_spectral(file)
+    }
+
+    /// `spectral` is 1–1024 bins, and every variant's integrator makes spectral images (not
+    /// bdpt-allbins); not with `grid` (a grid run has no variant images).
+    fn validate_spectral(&self, file: &Path) -> Result<(), InputError> {
+        let Some(n) = self.spectral else {
+            return Ok(());
+        };
+        let max = crate::film::spectral::MAX_BINS;
+        if !(1..=max).contains(&n) {
+            return Err(err(
+                file,
+                "spectral",
+                format!("must be 1–{max} bins, got {n}"),
+            ));
+        }
+        if self.grid.is_some() {
+            return Err(err(file, "spectral", "cannot be combined with `grid`"));
+        }
+        if let Some((i, v)) = self
+            .variants
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.integrator == crate::integrator::IntegratorKind::BdptAllbins)
+        {
+            return Err(err(
+                file,
+                "spectral",
+                format!(
+                    "variant {i} ({:?}) is bdpt-allbins, which makes no spectral image (it \
+                     carries the camera's three CIE importance rows, not per-bin radiance)",
+                    v.name
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// `difference.a` and `difference.b` name two different variants; not with `grid` (a grid

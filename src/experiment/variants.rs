@@ -11,6 +11,7 @@ use super::setup::Setup;
 use crate::error::Error;
 use crate::film::Film;
 use crate::film::output::write_exr;
+use crate::film::spectral::write_spectral_exr;
 use crate::integrator::{RenderSettings, Stats, render};
 use glam::Vec3;
 use indicatif::ProgressBar;
@@ -84,7 +85,7 @@ impl Runs<'_> {
             threads: cfg.threads,
             time_limit: None,
             progress: false,
-            spectral: None,
+            spectral: cfg.spectral,
         };
         let mut snap = Snapshots {
             runs: self,
@@ -198,6 +199,16 @@ impl Snapshots<'_, '_> {
                 .run_dir
                 .join(image_file(&v.name, mb.mode, next, rep));
             write_exr(&f, film.width, film.height, img)?;
+        }
+        if let Some(sf) = film.spectral.as_ref().filter(|_| rep == 0 && is_last) {
+            let f = self
+                .runs
+                .run_dir
+                .join(image_file(&v.name, mb.mode, next, rep))
+                .with_extension("spectral.exr");
+            let values = sf.values(film.spp);
+            let size = (film.width, film.height);
+            write_spectral_exr(&f, size, &sf.bins, &values, img, &[])?;
         }
         if let Some(r) = self.runs.reference {
             let key = RowKey {

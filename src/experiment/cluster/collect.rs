@@ -256,6 +256,16 @@ impl Collect<'_> {
                         if rep == 0 || st.budget + 1 == mb.budgets.len() {
                             copy(&src, &dir.join(&f))?;
                         }
+                        // the spectral image of the final budget (`spectral`), as a run on one
+                        // machine writes it
+                        let spectral = src.with_extension("spectral.exr");
+                        if s.cfg.spectral.is_some()
+                            && rep == 0
+                            && st.budget + 1 == mb.budgets.len()
+                            && spectral.is_file()
+                        {
+                            copy(&spectral, &dir.join(&f).with_extension("spectral.exr"))?;
+                        }
                     }
                 }
             }
