@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerate every row of results/REPRODUCTION.md: every experiment in experiments/, the renders
 # and analyses of the papers' figures that are single images (results/reproduction/), the data
-# plots (examples/paper_plots.rs) and Hua 2022's colour evaluation.
+# plots (examples/paper_plots/) and Hua 2022's colour evaluation.
 #
 #   scripts/reproduce.sh                  everything (about two hours on 2 cores)
 #   scripts/reproduce.sh --quick          the same at 64x48 and a few spp (minutes)

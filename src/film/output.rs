@@ -22,6 +22,33 @@ pub(crate) fn exr_encoding() -> exr::prelude::Encoding {
     }
 }
 
+/// Write one layer of `channels` with the text attributes `text` (byte-identical for identical
+/// input): the channel writer of shards and spectral images.
+pub(crate) fn write_channels(
+    path: &Path,
+    (width, height): (u32, u32),
+    channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+    text: &[(String, String)],
+) -> Result<(), String> {
+    use exr::prelude::*;
+    let mut attrs = LayerAttributes::default();
+    for (k, v) in text {
+        attrs.other.insert(
+            Text::from(k.as_str()),
+            AttributeValue::Text(Text::from(v.as_str())),
+        );
+    }
+    let size = (width as usize, height as usize);
+    let channels = AnyChannels::sort(channels.into());
+    let image = Image::from_layer(Layer::new(size, attrs, exr_encoding(), channels));
+    write_atomic(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| format!("cannot write EXR '{}': {e}", path.display()))
+    })
+}
+
 /// Write linear sRGB as an RGB f32 OpenEXR (byte-identical for identical images).
 pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(), String> {
     use exr::prelude::*;

@@ -17,7 +17,6 @@
 //! leave a gap.
 
 use super::Film;
-use super::output::{exr_encoding, write_atomic};
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -117,7 +116,6 @@ fn write_sums(
     info: &ShardInfo,
 ) -> Result<(), String> {
     use exr::prelude::*;
-    let size = (width as usize, height as usize);
     let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
         let v: Vec<f32> = rgb.iter().map(|p| p.to_array()[c]).collect();
@@ -138,21 +136,7 @@ fn write_sums(
             ));
         }
     }
-    let mut attrs = LayerAttributes::default();
-    for (k, v) in attributes(info) {
-        attrs.other.insert(
-            Text::from(k.as_str()),
-            AttributeValue::Text(Text::from(v.as_str())),
-        );
-    }
-    let layer = Layer::new(size, attrs, exr_encoding(), AnyChannels::sort(list));
-    let image = Image::from_layer(layer);
-    write_atomic(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| format!("cannot write EXR '{}': {e}", path.display()))
-    })
+    super::output::write_channels(path, (width, height), list.into_vec(), &attributes(info))
 }
 
 /// The name of the header attribute that describes a film.

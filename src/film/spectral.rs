@@ -4,7 +4,6 @@
 //! bin's centre, a comma for the decimal point), the attribute `spectralLayoutVersion` = "1.0",
 //! and the RGB preview in `R`, `G`, `B`.
 
-use crate::io::output::write_atomic;
 use crate::spectrum::Domain;
 use glam::Vec3;
 use std::path::Path;
@@ -127,32 +126,12 @@ pub fn write_spectral_exr(
             FlatSamples::F32(v),
         ));
     }
-    let mut attrs = LayerAttributes::default();
     let mut text = vec![
         ("spectralLayoutVersion".to_string(), "1.0".to_string()),
         ("emissiveUnits".to_string(), "W.m^-2.sr^-1".to_string()),
     ];
     text.extend(extra.iter().cloned());
-    for (k, v) in &text {
-        attrs.other.insert(
-            Text::from(k.as_str()),
-            AttributeValue::Text(Text::from(v.as_str())),
-        );
-    }
-    let size = (width as usize, height as usize);
-    let layer = Layer::new(
-        size,
-        attrs,
-        super::output::exr_encoding(),
-        AnyChannels::sort(list.into()),
-    );
-    let image = Image::from_layer(layer);
-    write_atomic(path, |tmp| {
-        image
-            .write()
-            .to_file(tmp)
-            .map_err(|e| format!("cannot write EXR '{}': {e}", path.display()))
-    })
+    super::output::write_channels(path, (width, height), list, &text)
 }
 
 #[cfg(test)]

@@ -59,9 +59,57 @@ fn bar(a: &str, b: &str, m: f64, not_finite: bool) -> Bar {
     }
 }
 
+/// The sheet of `a`, `b` and Y(a) − Y(b) (`names` head the columns and the colour bar,
+/// `captions` go under `a` and `b`), and the scale: the 99th percentile of |difference|.
+fn difference_sheet(
+    (a, b): (&[Vec3], &[Vec3]),
+    (w, h): (u32, u32),
+    (a_name, b_name): (&str, &str),
+    captions: [String; 2],
+    (title, label): (Vec<String>, Vec<String>),
+) -> Result<(Sheet, f64), Error> {
+    let diff: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| luminance(*x) - luminance(*y))
+        .collect();
+    let m = robust_max(&diff);
+    let not_finite = diff.iter().any(|x| !x.is_finite());
+    let zoom = zoom_for(w, h, MIN_TILE);
+    check_size("difference", 3 * (w * zoom) as u64, (h * zoom) as u64)?;
+    let k = exposure(b);
+    let [ca, cb] = captions;
+    let row = SheetRow {
+        label,
+        tiles: vec![
+            Some(tile(w, h, zoom, |x, y| {
+                to_srgb8(a[(y * w + x) as usize], k)
+            })),
+            Some(tile(w, h, zoom, |x, y| {
+                to_srgb8(b[(y * w + x) as usize], k)
+            })),
+            Some(tile(w, h, zoom, |x, y| {
+                diverging_colour(diff[(y * w + x) as usize], m)
+            })),
+        ],
+        captions: vec![ca, cb, format!("scale ±{}", tick(m))],
+        bar: Some(bar(a_name, b_name, m, not_finite)),
+    };
+    let sheet = Sheet {
+        title,
+        columns: vec![
+            a_name.to_string(),
+            b_name.to_string(),
+            format!("{a_name} − {b_name}"),
+        ],
+        tile: (w * zoom, h * zoom),
+        rows: vec![row],
+    };
+    Ok((sheet, m))
+}
+
 /// Write `figures/difference.png` (and its `.svg`).
 pub fn difference(f: &Final, d: &Difference, fig: &Path) -> Result<Vec<PathBuf>, Error> {
-    let (w, h) = (f.info.width, f.info.height);
     let a = variant_image(f, &d.a, "a")?;
     let (b_name, b) = match &d.b {
         Some(n) => (n.as_str(), variant_image(f, n, "b")?),
@@ -75,16 +123,6 @@ pub fn difference(f: &Final, d: &Difference, fig: &Path) -> Result<Vec<PathBuf>,
             })?,
         ),
     };
-    let diff: Vec<f64> = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| luminance(*x) - luminance(*y))
-        .collect();
-    let m = robust_max(&diff);
-    let not_finite = diff.iter().any(|x| !x.is_finite());
-    let zoom = zoom_for(w, h, MIN_TILE);
-    check_size("difference", 3 * (w * zoom) as u64, (h * zoom) as u64)?;
-    let k = exposure(b);
     let caption = |name: &str| {
         if d.b.is_none() && name == "reference" {
             f.reference_caption()
@@ -92,45 +130,24 @@ pub fn difference(f: &Final, d: &Difference, fig: &Path) -> Result<Vec<PathBuf>,
             snr_caption(f, name)
         }
     };
-    let row = SheetRow {
-        label: vec![f.budget_label(), f.mode_label().into()],
-        tiles: vec![
-            Some(tile(w, h, zoom, |x, y| {
-                to_srgb8(a[(y * w + x) as usize], k)
-            })),
-            Some(tile(w, h, zoom, |x, y| {
-                to_srgb8(b[(y * w + x) as usize], k)
-            })),
-            Some(tile(w, h, zoom, |x, y| {
-                diverging_colour(diff[(y * w + x) as usize], m)
-            })),
-        ],
-        captions: vec![
-            caption(&d.a),
-            caption(b_name),
-            format!("scale ±{}", tick(m)),
-        ],
-        bar: Some(bar(&d.a, b_name, m, not_finite)),
-    };
-    let sheet = Sheet {
-        title: vec![
-            format!(
-                "{}: signed difference {} − {b_name}",
-                f.info.config.name, d.a
-            ),
-            format!(
-                "luminance at {}, repeat 0; one exposure for both images",
-                f.budget_title()
-            ),
-        ],
-        columns: vec![
-            d.a.clone(),
-            b_name.to_string(),
-            format!("{} − {b_name}", d.a),
-        ],
-        tile: (w * zoom, h * zoom),
-        rows: vec![row],
-    };
+    let title = vec![
+        format!(
+            "{}: signed difference {} − {b_name}",
+            f.info.config.name, d.a
+        ),
+        format!(
+            "luminance at {}, repeat 0; one exposure for both images",
+            f.budget_title()
+        ),
+    ];
+    let label = vec![f.budget_label(), f.mode_label().into()];
+    let (sheet, _) = difference_sheet(
+        (a, b),
+        (f.info.width, f.info.height),
+        (&d.a, b_name),
+        [caption(&d.a), caption(b_name)],
+        (title, label),
+    )?;
     write_sheet(&sheet, fig, "difference", "difference")
 }
 
@@ -140,44 +157,20 @@ pub fn difference(f: &Final, d: &Difference, fig: &Path) -> Result<Vec<PathBuf>,
 pub fn difference_of_images(
     (a_name, a): (&str, &[Vec3]),
     (b_name, b): (&str, &[Vec3]),
-    (w, h): (u32, u32),
+    size: (u32, u32),
     title: &str,
     (dir, stem): (&Path, &str),
 ) -> Result<(Vec<PathBuf>, f64), Error> {
-    let diff: Vec<f64> = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| luminance(*x) - luminance(*y))
-        .collect();
-    let m = robust_max(&diff);
-    let not_finite = diff.iter().any(|x| !x.is_finite());
-    let zoom = zoom_for(w, h, MIN_TILE);
-    check_size("difference", 3 * (w * zoom) as u64, (h * zoom) as u64)?;
-    let k = exposure(b);
-    let row = SheetRow {
-        label: vec![],
-        tiles: vec![
-            Some(tile(w, h, zoom, |x, y| {
-                to_srgb8(a[(y * w + x) as usize], k)
-            })),
-            Some(tile(w, h, zoom, |x, y| {
-                to_srgb8(b[(y * w + x) as usize], k)
-            })),
-            Some(tile(w, h, zoom, |x, y| {
-                diverging_colour(diff[(y * w + x) as usize], m)
-            })),
-        ],
-        captions: vec![a_name.into(), b_name.into(), format!("scale ±{}", tick(m))],
-        bar: Some(bar(a_name, b_name, m, not_finite)),
-    };
-    let sheet = Sheet {
-        title: vec![
-            title.to_string(),
-            "luminance; one exposure for both images".into(),
-        ],
-        columns: vec![a_name.into(), b_name.into(), format!("{a_name} − {b_name}")],
-        tile: (w * zoom, h * zoom),
-        rows: vec![row],
-    };
+    let title = vec![
+        title.to_string(),
+        "luminance; one exposure for both images".into(),
+    ];
+    let (sheet, m) = difference_sheet(
+        (a, b),
+        size,
+        (a_name, b_name),
+        [a_name.into(), b_name.into()],
+        (title, vec![]),
+    )?;
     Ok((write_sheet(&sheet, dir, stem, "difference")?, m))
 }
