@@ -5,7 +5,8 @@
 #
 #   scripts/reproduce.sh                  everything (about two hours on 2 cores)
 #   scripts/reproduce.sh --quick          the same at 64x48 and a few spp (minutes)
-#   scripts/reproduce.sh --only NAME...   some parts: experiment names, `renders`, `plots`, `gmm`
+#   scripts/reproduce.sh --only NAME...   some parts: experiment names, `renders`, `plots`, `bench`,
+#                                         `gmm`
 #   scripts/reproduce.sh --out DIR        results root (default: results, or results/quick)
 #
 # Experiments whose integrators are not built fail with exit code 2 and a message naming the
@@ -159,6 +160,18 @@ if wanted plots; then
   [ -f "$out/reproduction/exr/walls-allbins.exr" ] && walls=(--walls "$out/reproduction/exr/walls-allbins.exr")
   cargo run --release --quiet --example paper_plots -- "$out/reproduction/plots" "${walls[@]}" \
     || failed+=("plots")
+fi
+
+# Jung Fig. 7.14's first row: the cost of a uniform and of a tabulated wavelength draw (criterion;
+# about a minute with its build; skipped by --quick, whose point is minutes).
+if wanted bench; then
+  if [ ${#quick[@]} -gt 0 ]; then
+    echo "== bench: skipped with --quick (run: cargo bench --bench wavelengths)"
+  else
+    echo "== bench"
+    cargo bench --quiet --bench wavelengths > "$out/reproduction/jung-fig7-14-wavelengths-bench.txt" 2>&1 \
+      || failed+=("bench")
+  fi
 fi
 
 # Hua 2022's colour evaluation of Gaussian-mixture fits of the 144 RIT matrices (seconds).

@@ -703,7 +703,12 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         "domain: [{}, {}] nm, camera range [{}, {}] nm",
         s.domain.min, s.domain.max, s.observer.range.min, s.observer.range.max
     );
-    println!("camera: {}×{}", s.camera.width, s.camera.height);
+    println!(
+        "camera: {}×{}, sensor {}",
+        s.camera.width,
+        s.camera.height,
+        sensor_label(&s)
+    );
     println!(
         "primitives: {} triangles, {} spheres",
         s.triangles.len(),
@@ -1265,9 +1270,9 @@ pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
 /// What the camera of `scene` integrates, for the spectral EXR's `stokes.sensor` attribute.
 fn sensor_label(scene: &Scene) -> String {
     let r = scene.observer.range;
-    if scene.observer.is_cie() {
-        format!("cie-1931 over [{}, {}] nm", r.min, r.max)
-    } else {
-        format!("response over [{}, {}] nm", r.min, r.max)
+    match scene.observer.sensor_response() {
+        None => format!("cie-1931 over [{}, {}] nm", r.min, r.max),
+        Some(crate::spectrum::Spectrum::Box { .. }) => format!("band [{}, {}] nm", r.min, r.max),
+        Some(_) => format!("response curve over [{}, {}] nm", r.min, r.max),
     }
 }

@@ -478,3 +478,41 @@ fn experiment_spectral_option_writes_the_variants_spectral_images() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `stokes inspect` names the sensor and the camera's range.
+#[test]
+fn inspect_names_the_sensor() {
+    let dir = temp_dir("spectral-inspect");
+    let mut v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("scenes/furnace-lambert.json")).unwrap(),
+    )
+    .unwrap();
+    for (sensor, want) in [
+        (
+            serde_json::json!({ "band": [300, 380] }),
+            "sensor band [300, 380] nm",
+        ),
+        (
+            serde_json::json!({ "response": { "type": "gaussian", "center": 550, "fwhm": 20, "peak": 1 } }),
+            "sensor response curve over [280, 780] nm",
+        ),
+        (
+            serde_json::json!("cie-1931"),
+            "sensor cie-1931 over [360, 780] nm",
+        ),
+    ] {
+        v["camera"]["sensor"] = sensor;
+        let scene = dir.join("s.json");
+        std::fs::write(&scene, v.to_string()).unwrap();
+        let out = std::process::Command::new(bin())
+            .args(["inspect", s(&scene)])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && text.contains(want),
+            "{want}: {text}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

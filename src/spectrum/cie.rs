@@ -165,6 +165,11 @@ impl Observer {
         self.response.is_none()
     }
 
+    /// The response curve of a sensor other than the CIE observer.
+    pub fn sensor_response(&self) -> Option<&Spectrum> {
+        self.response.as_ref()
+    }
+
     /// The camera's response at λ before normalisation: (x̄, ȳ, z̄), or a sensor's r(λ) times
     /// [`grey_xyz`].
     #[inline]
