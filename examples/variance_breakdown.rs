@@ -41,11 +41,10 @@ fn args() -> Result<Args, String> {
         let v = it.next().ok_or(format!("{k} needs a value"))?;
         let num = |v: &str| v.parse::<u64>().map_err(|e| format!("{k} {v}: {e}"));
         match k.as_str() {
-            "--set" => {
-                let (p, x) = v.split_once('=').ok_or(format!("--set {v}: PATH=JSON"))?;
-                let x = serde_json::from_str(x).map_err(|e| format!("--set {v}: {e}"))?;
-                a.sets.push((p.to_string(), x));
-            }
+            // the same PATH=JSON syntax and checks as `stokes render --set`
+            "--set" => a
+                .sets
+                .extend(stokes::cli::parse_sets(&[v]).map_err(|e| e.to_string())?),
             "--spp" => a.spp = num(&v)? as u32,
             "--seeds" => a.seeds = num(&v)?,
             "--bins" => a.bins = num(&v)? as usize,

@@ -227,13 +227,9 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
                  cannot be merged (render the whole range)",
             ));
         }
-        if a.integrator == IntegratorKind::BdptAllbins {
-            return Err(Error::input(
-                "--spectral: bdpt-allbins cannot make a spectral image (it carries the camera's \
-                 three CIE importance rows, not per-bin radiance); use bdpt-forward, \
-                 bdpt-backward, pt-hero or pt-mono",
-            ));
-        }
+        a.integrator
+            .spectral_support()
+            .map_err(|m| Error::input(format!("--spectral: {m}")))?;
     }
     if !(a.exposure.abs() <= MAX_EXPOSURE) {
         return Err(Error::input(format!(
@@ -359,10 +355,14 @@ fn is_strategy_name(p: &Path) -> bool {
     let Some(n) = n.strip_suffix(".exr") else {
         return false;
     };
-    n.strip_prefix("vertices").is_some_and(digits)
-        || n.strip_prefix('s')
-            .and_then(|n| n.split_once("_t"))
-            .is_some_and(|(a, b)| digits(a) && digits(b))
+    n.strip_prefix("vertices").is_some_and(digits) || strategy_of(n).is_some()
+}
+
+/// (s, t) of a strategy image's name `s<s>_t<t>` (digits only).
+fn strategy_of(name: &str) -> Option<(usize, usize)> {
+    let digits = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+    let (a, b) = name.strip_prefix('s')?.split_once("_t")?;
+    (digits(a) && digits(b)).then_some((a.parse().ok()?, b.parse().ok()?))
 }
 
 /// The strategy images `s<i>_t<j>` grouped by the number of path vertices i + j, in increasing
@@ -370,12 +370,8 @@ fn is_strategy_name(p: &Path) -> bool {
 fn layers_by_vertices(names: &[String]) -> Vec<(usize, Vec<usize>)> {
     let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     for (i, n) in names.iter().enumerate() {
-        let k = n
-            .strip_prefix('s')
-            .and_then(|n| n.split_once("_t"))
-            .and_then(|(a, b)| Some(a.parse::<usize>().ok()? + b.parse::<usize>().ok()?));
-        if let Some(k) = k {
-            groups.entry(k).or_default().push(i);
+        if let Some((s, t)) = strategy_of(n) {
+            groups.entry(s + t).or_default().push(i);
         }
     }
     groups.into_iter().collect()
@@ -521,11 +517,9 @@ pub fn diff(a: &DiffArgs) -> Result<(), Error> {
         &title,
         (dir, &stem),
     )?;
+    use crate::experiment::figures::luminance;
     let y = |img: &[glam::Vec3]| {
-        img.iter()
-            .map(|c| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64)
-            .sum::<f64>()
-            / img.len().max(1) as f64
+        img.iter().map(|c| luminance(*c)).sum::<f64>() / img.len().max(1) as f64
     };
     println!(
         "mean Y: {na} {:.6}, {nb} {:.6}, difference {:+.6}; scale ±{m:.4} (99th percentile of |ΔY|)",
@@ -536,9 +530,9 @@ pub fn diff(a: &DiffArgs) -> Result<(), Error> {
     // SNR of a against b as the experiments measure it, and of its luminance alone (spatial
     // noise without colour noise)
     let rgb = crate::experiment::metrics::compare(&ia, &ib, None).snr_db;
-    let lum = |c: &glam::Vec3| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64;
     let (sig, noise) = ia.iter().zip(&ib).fold((0.0, 0.0), |(s, n), (p, q)| {
-        (s + lum(q) * lum(q), n + (lum(p) - lum(q)).powi(2))
+        let (lp, lq) = (luminance(*p), luminance(*q));
+        (s + lq * lq, n + (lp - lq).powi(2))
     });
     let y_snr = crate::experiment::metrics::snr_db(sig, noise);
     println!("SNR of {na} against {nb}: {rgb:.2} dB (linear sRGB), {y_snr:.2} dB (luminance Y)");
@@ -575,16 +569,10 @@ pub fn png(a: &PngArgs) -> Result<(), Error> {
     }
     let target = check_output(&a.output).map_err(|e| output_error("-o/--output", &a.output, e))?;
     let (w, h, img) = read_exr(&a.input).map_err(Error::input)?;
-    let exposure = a.exposure.unwrap_or_else(|| {
-        let mut v: Vec<f32> = img
-            .iter()
-            .map(|c| c.max_element())
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .collect();
-        v.sort_by(f32::total_cmp);
-        v.get((v.len() as f64 * 0.99) as usize)
-            .map_or(0.0, |p| -p.max(1e-12).log2())
-    });
+    // the figures' exposure: the 99th percentile of the brightest channel to white
+    let exposure = a
+        .exposure
+        .unwrap_or_else(|| crate::experiment::figures::exposure(&img).log2());
     write_png(&target, w, h, &img, exposure).map_err(Error::runtime)?;
     println!("{}: exposure {exposure:+.2} stops", show_path(&target));
     Ok(())

@@ -234,10 +234,7 @@ pub(super) fn jung_fig7_3(dir: &Path, scene: &Scene, exr: &Path) -> R<Value> {
         Some(scene.shapes[p.shape as usize].name.as_str())
     };
     let ids: Vec<Option<&str>> = (0..w * h).map(|i| shape_at(i % w, i / w)).collect();
-    let lum = |i: u32| {
-        let c = rgb[i as usize];
-        0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
-    };
+    let lum = |i: u32| stokes::experiment::figures::luminance(rgb[i as usize]);
     let mut panels = Vec::new();
     let mut summary = serde_json::Map::new();
     for (wall, vertical) in [

@@ -299,21 +299,10 @@ impl Config {
         if self.grid.is_some() {
             return Err(err(file, "spectral", "cannot be combined with `grid`"));
         }
-        if let Some((i, v)) = self
-            .variants
-            .iter()
-            .enumerate()
-            .find(|(_, v)| v.integrator == crate::integrator::IntegratorKind::BdptAllbins)
-        {
-            return Err(err(
-                file,
-                "spectral",
-                format!(
-                    "variant {i} ({:?}) is bdpt-allbins, which makes no spectral image (it \
-                     carries the camera's three CIE importance rows, not per-bin radiance)",
-                    v.name
-                ),
-            ));
+        for (i, v) in self.variants.iter().enumerate() {
+            v.integrator
+                .spectral_support()
+                .map_err(|m| err(file, "spectral", format!("variant {i} ({:?}): {m}", v.name)))?;
         }
         Ok(())
     }

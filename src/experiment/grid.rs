@@ -117,13 +117,12 @@ pub(super) fn render_cell(
 pub fn material_mean_y(scene: &Scene, name: &str, rgb: &[glam::Vec3]) -> Option<f64> {
     let id = scene.material_names.iter().position(|n| n == name)? as u32;
     let (_, ids) = super::regions::region_ids(scene, super::config::RegionBy::Material);
-    let to_xyz = crate::spectrum::cie::xyz_to_srgb_matrix().inverse();
     let (sum, n) = ids
         .iter()
         .zip(rgb)
         .filter(|(m, _)| **m == Some(id))
         .fold((0.0f64, 0usize), |(s, n), (_, c)| {
-            (s + (to_xyz * *c).y as f64, n + 1)
+            (s + super::figures::luminance(*c), n + 1)
         });
     (n > 0).then(|| sum / n as f64)
 }

@@ -46,6 +46,20 @@ impl IntegratorKind {
             IntegratorKind::BdptAllbins => "bdpt-allbins",
         }
     }
+    /// Whether the integrator can make a spectral image, and why not: bdpt-allbins carries the
+    /// camera's three CIE importance rows through the path, not per-bin radiance.
+    pub fn spectral_support(&self) -> Result<(), String> {
+        match self {
+            IntegratorKind::BdptAllbins => Err(
+                "bdpt-allbins cannot make a spectral image: it carries the camera's three CIE \
+                 importance rows through the path, not per-bin radiance (use bdpt-forward, \
+                 bdpt-backward, pt-hero or pt-mono)"
+                    .into(),
+            ),
+            _ => Ok(()),
+        }
+    }
+
     pub fn all() -> [IntegratorKind; 5] {
         [
             IntegratorKind::PtMono,
@@ -337,6 +351,13 @@ impl SampleSink<'_> {
         }
     }
 
+    /// The pixel index of film position (x, y), if on the film.
+    #[inline]
+    fn film_pixel(&self, x: f32, y: f32) -> Option<u32> {
+        (x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32)
+            .then(|| y as u32 * self.width + x as u32)
+    }
+
     /// Splat XYZ at film position (x, y) in pixels (light tracing). Pixel value = (samples +
     /// splats) / spp, so a splat must be that pixel's estimate for one pixel sample.
     #[inline]
@@ -345,11 +366,12 @@ impl SampleSink<'_> {
             self.stats.nan_inf_rejected += 1;
             return false;
         }
-        if x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32 {
-            self.splats.push(y as u32 * self.width + x as u32, xyz);
-            true
-        } else {
-            false
+        match self.film_pixel(x, y) {
+            Some(p) => {
+                self.splats.push(p, xyz);
+                true
+            }
+            None => false,
         }
     }
 
@@ -368,15 +390,12 @@ impl SampleSink<'_> {
     /// [`SampleSink::spectral`] for a light-tracing splat at film position (x, y).
     #[inline]
     pub fn spectral_splat(&mut self, x: f32, y: f32, l: f32, v: f32) {
+        let pixel = self.film_pixel(x, y);
         if let Some(sp) = &mut self.spectral
             && let Some(b) = sp.bins.bin(l)
+            && let Some(pixel) = pixel
             && v.is_finite()
-            && x >= 0.0
-            && y >= 0.0
-            && x < self.width as f32
-            && y < self.height as f32
         {
-            let pixel = y as u32 * self.width + x as u32;
             sp.splats.push((pixel, b as u32, v * sp.inv_width));
         }
     }

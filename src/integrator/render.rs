@@ -79,13 +79,8 @@ pub fn render(
     on_pass: Option<&mut PassCallback>,
 ) -> Result<RenderOutput, String> {
     opts.validate()?;
-    if settings.spectral.is_some() && kind == IntegratorKind::BdptAllbins {
-        return Err(
-            "bdpt-allbins cannot make a spectral image: it carries the camera's three CIE \
-             importance rows through the path, not per-bin radiance (use bdpt-forward, \
-             bdpt-backward, pt-hero or pt-mono)"
-                .into(),
-        );
+    if settings.spectral.is_some() {
+        kind.spectral_support()?;
     }
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
@@ -251,17 +246,10 @@ fn pass_rows<I: Integrator>(
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
     // The spectral image's rows beside the film's (empty rows without one).
-    let (bins, spectral_rows) = match spectral {
-        Some(f) => (Some(f.bins), f.sum.as_mut_slice()),
-        None => (None, &mut [][..]),
-    };
-    let per_row = bins.map_or(0, |b| b.n * w as usize);
-    let mut empty: Vec<&mut [f64]> = Vec::new();
-    let spectral_rows: Vec<&mut [f64]> = if per_row > 0 {
-        spectral_rows.chunks_mut(per_row).collect()
-    } else {
-        empty.extend((0..h).map(|_| &mut [][..]));
-        empty
+    let bins = spectral.as_ref().map(|f| f.bins);
+    let spectral_rows: Vec<&mut [f64]> = match spectral {
+        Some(f) => f.sum.chunks_mut(f.bins.n * w as usize).collect(),
+        None => (0..h).map(|_| &mut [][..]).collect(),
     };
     // One row per job: a thread that runs out steals single rows, so both threads stay busy to
     // the end of the pass (rayon's default leaves run up to a quarter of the rows in one piece,

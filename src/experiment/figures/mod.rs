@@ -10,6 +10,7 @@ mod images;
 mod plots;
 mod sheet;
 
+pub use colour::{exposure, luminance};
 pub use difference::difference_of_images;
 pub use plots::sweep_summary;
 
