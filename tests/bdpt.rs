@@ -4,11 +4,11 @@
 use glam::Vec3;
 use std::path::Path;
 use stokes::geometry::Camera;
-use stokes::integrator::bdpt::{Bdpt, ResetMode, connect_for_test};
+use stokes::integrator::bdpt::{Bdpt, ResetMode};
 use stokes::integrator::render::run;
 use stokes::integrator::{
     Integrator, IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
-    Sampler, Stats, render,
+    Stats, render,
 };
 use stokes::material::{Bbrrdf, Material};
 use stokes::scene::Scene;
@@ -237,75 +237,6 @@ fn agree_green_spheres() {
 #[test]
 fn agree_cornell_box() {
     agree_with_pt_mono("cornell-box", 16, 96);
-}
-
-/// MIS weights of all strategies for one path sum to 1, on many sampled paths of several
-/// lengths, with fluorescent vertices on both sub-paths.
-#[test]
-fn mis_weights_sum_to_one() {
-    for name in ["fluorescent-walls", "furnace-fluorescent", "green-spheres"] {
-        let scene = load(name);
-        for (_, mode) in MODES {
-            for h in [MisHeuristic::Balance, MisHeuristic::Power] {
-                let opts = IntegratorOptions {
-                    max_depth: 7,
-                    mis: h,
-                    ..Default::default()
-                };
-                let b = Bdpt::new(&scene, &opts, mode).unwrap();
-                let mut scratch = b.scratch(&scene);
-                let mut stats = Stats::default();
-                let mut sampler = Sampler::from_seed(7);
-                let (mut checked, mut both) = (0, 0);
-                let mut lengths = [0usize; 9];
-                let mut w = Vec::new();
-                for i in 0..12000 {
-                    let (x, y) = ((i % 32) as f32 * 8.0, (i / 32 % 32) as f32 * 8.0);
-                    b.trace_subpaths(&scene, x, y, &mut sampler, &mut scratch, &mut stats);
-                    let (nc, nl) = (scratch.camera().len(), scratch.light().len());
-                    for s in 1..=nc {
-                        for t in 0..=nl {
-                            let k = s + t;
-                            if !(2..=8).contains(&k) || (t == 0 && s < 2) {
-                                continue;
-                            }
-                            let Some(p) =
-                                connect_for_test(&b, &scene, &scratch, s, t, &mut sampler)
-                            else {
-                                continue;
-                            };
-                            p.strategy_weights(mode, h, &mut w);
-                            let sum: f64 = w.iter().sum();
-                            let ps = p.strategy_pdf(s, mode);
-                            if ps <= 0.0 {
-                                continue;
-                            }
-                            assert!(
-                                (sum - 1.0).abs() < 1e-4,
-                                "{name} {mode:?} k={k} s={s}: Σw = {sum}"
-                            );
-                            let ws = p.mis_weight(s, ps, mode, h);
-                            assert!(
-                                (ws - w[s - 1]).abs() < 1e-4,
-                                "weight of own strategy {ws} vs {}",
-                                w[s - 1]
-                            );
-                            checked += 1;
-                            lengths[k] += 1;
-                            if (1..s).any(|i| p.shift[i]) && (s..k - 1).any(|i| p.shift[i]) {
-                                both += 1;
-                            }
-                        }
-                    }
-                }
-                assert!(checked > 1000, "{name}: only {checked} paths");
-                assert!(lengths[3..=8].iter().all(|&n| n > 0), "{lengths:?}");
-                if name == "fluorescent-walls" {
-                    assert!(both > 50, "{name}: {both} paths shift on both sub-paths");
-                }
-            }
-        }
-    }
 }
 
 /// For a fixed vertex count k, every strategy (s, t) with s + t = k on its own and unweighted

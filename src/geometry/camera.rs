@@ -63,9 +63,18 @@ impl Camera {
         4.0 * self.tan_half_x * self.tan_half_y
     }
 
-    /// Directional importance We (pinhole, per unit solid angle and per unit pixel-area-normalised
-    /// film): pdf of generating direction `d` = 1 / (A · cos³θ). Returns `None` if `d` is outside
-    /// the image. Also returns the film position in pixels.
+    /// The pinhole importance W_e = 1 / (A cos⁴θ) of a direction at `cos` = cos θ to the axis,
+    /// for the whole film at unit distance (pbrt-v4 `PerspectiveCamera::We` with a box filter,
+    /// divided by the pixel count): a camera strategy's pixel sample and a light-tracing splat
+    /// then both estimate the pixel's mean radiance (Jung eq. 6.2). The one place it is written.
+    #[inline]
+    pub fn importance(&self, cos: f64) -> f64 {
+        let c2 = cos * cos;
+        1.0 / (self.film_area() as f64 * c2 * c2)
+    }
+
+    /// The film position in pixels at which direction `d` from the pinhole lands, and cos θ to
+    /// the axis; `None` if `d` is outside the image.
     pub fn project(&self, d: Vec3) -> Option<(f32, f32, f32)> {
         let cos = d.dot(self.forward);
         if cos <= 0.0 {

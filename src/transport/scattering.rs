@@ -98,6 +98,27 @@ impl Scattering {
         }
     }
 
+    /// [`Scattering::eval`] from the cosines n·wo and n·wi of the two directions, for a lobe
+    /// that depends on nothing else (the diffuse lobe); `None` for one that needs the
+    /// directions themselves (a phase function). Connections that have the cosines at hand
+    /// save the dot products.
+    #[inline(always)]
+    pub fn eval_cosines(&self, cos_o: f32, cos_i: f32) -> Option<f32> {
+        match *self {
+            Scattering::Diffuse { .. } => Some(diffuse_f(cos_o, cos_i)),
+            Scattering::HenyeyGreenstein { .. } => None,
+        }
+    }
+
+    /// [`Scattering::pdf`] from the cosines n·wo and n·wi, as [`Scattering::eval_cosines`].
+    #[inline(always)]
+    pub fn pdf_cosines(&self, cos_o: f32, cos_i: f32) -> Option<f32> {
+        match *self {
+            Scattering::Diffuse { .. } => Some(diffuse_pdf(cos_o, cos_i)),
+            Scattering::HenyeyGreenstein { .. } => None,
+        }
+    }
+
     /// The projected-solid-angle factor |cos θ| of direction `w` at the vertex: the normal's
     /// cosine on a surface, 1 in a medium.
     #[inline(always)]

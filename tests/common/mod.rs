@@ -58,26 +58,7 @@ pub fn mean_xyz(
 
 /// A small box of fluorescent, forward-scattering medium (σ̂s > σ̂t in its emission band) in a
 /// grey room lit by a UV + visible light; the camera outside the medium.
-pub const DYE_BOX: &str = r#"{
- "domain": [300, 780],
- "camera": {"origin": [0, 0, 3.5], "target": [0, 0, 0], "fov": 40, "width": 24, "height": 24},
- "materials": {"grey": {"type": "lambert", "reflectance": 0.6}},
- "media": {
-  "dye": {"type": "homogeneous", "sigma_a": {"type": "box", "lo": 600, "hi": 780, "value": 0.3},
-          "sigma_s": 0.2, "phase": {"type": "henyey-greenstein", "g": 0.4},
-          "fluorescence": {"absorption": {"type": "gaussian", "center": 380, "fwhm": 60, "peak": 1},
-                           "concentration": 2.0,
-                           "emission": {"type": "gaussian", "center": 540, "fwhm": 40, "peak": 0.0235},
-                           "quantum_yield": 0.9}}
- },
- "shapes": [
-  {"type": "box", "name": "room", "min": [-1.5, -1, -1.5], "max": [1.5, 1.2, 4], "material": "grey", "flip_normals": true},
-  {"type": "box", "name": "tank", "min": [-0.7, -1, -0.7], "max": [0.7, 0.3, 0.7], "interior": "dye"},
-  {"type": "quad", "name": "light", "corners": [[-0.4, 1.19, -0.4], [0.4, 1.19, -0.4], [0.4, 1.19, 0.4], [-0.4, 1.19, 0.4]],
-   "material": "grey",
-   "emission": {"spectrum": {"type": "box", "lo": 320, "hi": 700, "value": 1}, "scale": 8}}
- ]
-}"#;
+pub const DYE_BOX: &str = include_str!("dye-box.json");
 
 /// The [`DYE_BOX`] scene.
 pub fn dye_box() -> Scene {

@@ -11,38 +11,17 @@
 //! computed by the same expression, in the same order, as the uncached `evaluate::measurement`,
 //! so the products are bit-identical.
 
+use super::connection::{Seg, camera_term};
+use super::wavelength::LambdaKey;
 use crate::material::Bbrrdf;
 use crate::scene::{NONE, Scene};
 use crate::transport::spectral::with_spectrum;
 use crate::transport::{Vertex, VertexKind};
-use glam::Vec3;
-
-/// A segment x_a → x_b in path order (camera towards light).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Seg {
-    /// Unit direction from x_a to x_b.
-    pub w: Vec3,
-    /// Squared distance.
-    pub d2: f32,
-    /// The geometry factor |cos θ_a| |cos θ_b| / d² (eq. 6.2).
-    pub g: f64,
-}
-
-impl Seg {
-    /// The segment from `a` to `b`, as `measurement` computes it.
-    #[inline]
-    pub fn new<P>(a: &Vertex<P>, b: &Vertex<P>) -> Seg {
-        let (w, d2) = a.towards(b);
-        // G(a ↔ b) without visibility (eq. 6.2)
-        let g = a.abs_cos(w) as f64 * b.abs_cos(w) as f64 / d2 as f64;
-        Seg { w, d2, g }
-    }
-}
 
 /// f_λ of one material at the wavelengths it was last evaluated at.
 #[derive(Clone, Copy, Debug, Default)]
 struct Spectral {
-    /// The bits of λ_i (high half) and λ(i−1) (low half).
+    /// λ_i and λ(i−1) (`LambdaKey::pair`).
     key: u64,
     /// 0: empty, 1: no shift, 2: shift.
     tag: u8,
@@ -51,9 +30,8 @@ struct Spectral {
 
 impl Spectral {
     #[inline(always)]
-    fn key(li: f32, lo: f32, shift: bool) -> (u64, u8) {
-        let key = ((li.to_bits() as u64) << 32) | lo.to_bits() as u64;
-        (key, 1 + shift as u8)
+    fn key(lambda_in: f32, lambda_out: f32, shift: bool) -> (u64, u8) {
+        (LambdaKey::pair(lambda_in, lambda_out), 1 + shift as u8)
     }
 }
 
@@ -65,9 +43,9 @@ pub struct SubpathCache {
     seg: Vec<Seg>,
     /// `dir[i]`: f_dir at vertex i between its two sub-path neighbours (0 at the ends).
     dir: Vec<f32>,
-    /// Camera sub-path: c0 = cos θ at the pinhole, c0 |cos θ1| / d², and A c0⁴ (eq. 6.2 with
-    /// the pinhole importance).
-    pub head: (f64, f64, f64),
+    /// Camera sub-path: the camera's end of the measurement, W_e(x0 → x1) times the geometry
+    /// factor without the pinhole's cosine (`connection::camera_term`; 0 behind the camera).
+    pub head: f64,
     /// Built for the current sub-path (they are built on first use: many samples' connections
     /// end before an interior vertex).
     ready: bool,
@@ -78,7 +56,7 @@ impl SubpathCache {
         self.seg.clear();
         self.dir.clear();
         self.dir.resize(n, 0.0);
-        self.head = (0.0, 0.0, 0.0);
+        self.head = 0.0;
         self.ready = true;
     }
 
@@ -116,10 +94,7 @@ impl SubpathCache {
         }
         if n >= 2 {
             let Seg { w, d2, .. } = self.seg[0];
-            let c0 = w.dot(scene.camera.forward) as f64;
-            let a = c0 * v[1].abs_cos(w) as f64 / d2 as f64;
-            let b = scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
-            self.head = (c0, a, b);
+            self.head = camera_term(scene, w, d2, &v[1]);
         }
     }
 
@@ -182,12 +157,12 @@ impl SpectralCache {
     fn get<P>(
         &mut self,
         x: &Vertex<P>,
-        li: f32,
-        lo: f32,
+        lambda_in: f32,
+        lambda_out: f32,
         shift: bool,
         eval: impl FnOnce() -> Option<f32>,
     ) -> Option<f32> {
-        let (key, tag) = Spectral::key(li, lo, shift);
+        let (key, tag) = Spectral::key(lambda_in, lambda_out, shift);
         let slot = self.slot(x)?;
         let c = &mut self.slots[slot];
         if c.key == key && c.tag == tag {
@@ -205,22 +180,22 @@ impl SpectralCache {
         &mut self,
         scene: &Scene,
         x: &Vertex<P>,
-        li: f32,
-        lo: f32,
+        lambda_in: f32,
+        lambda_out: f32,
         shift: bool,
     ) -> Option<f32> {
-        self.get(x, li, lo, shift, || {
-            Some(with_spectrum!(scene, x, m => m.eval(li, lo, shift), else return None))
+        self.get(x, lambda_in, lambda_out, shift, || {
+            Some(with_spectrum!(scene, x, m => m.eval(lambda_in, lambda_out, shift), else return None))
         })
     }
 
-    /// The diagonal of `m`, the spectral part of `x`, at `l`: f_λ(l, l, no shift), since
+    /// The diagonal of `m`, the spectral part of `x`, at `lambda`: f_λ(λ, λ, no shift), since
     /// `Bbrrdf::eval` of a non-shifting pair is the diagonal.
     #[inline]
-    pub fn diagonal<P>(&mut self, x: &Vertex<P>, m: &impl Bbrrdf, l: f32) -> f32 {
-        match self.get(x, l, l, false, || Some(m.diagonal(l))) {
+    pub fn diagonal<P>(&mut self, x: &Vertex<P>, m: &impl Bbrrdf, lambda: f32) -> f32 {
+        match self.get(x, lambda, lambda, false, || Some(m.diagonal(lambda))) {
             Some(f) => f,
-            None => m.diagonal(l),
+            None => m.diagonal(lambda),
         }
     }
 }

@@ -1,16 +1,20 @@
 //! Connecting sub-paths for every strategy (s, t), the measurement contribution f_j (eq. 6.2)
 //! and the weighted throughput w · f / p (eqs. 6.18, 6.19).
 
-use super::cache::{Seg, SpectralCache, SubpathCache};
+use super::cache::{SpectralCache, SubpathCache};
+use super::connection::{
+    Connection, Contribution, Seg, camera_term, splat, splat_position, weighted, xyz_weight,
+};
 use super::mis::{FullPath, ResetMode};
 use super::reset;
-use super::subpath::{Vertex, sample_light_vertex};
+use super::subpath::{Lambdas, Vertex, sample_light_vertex};
+use super::wavelength::light_wavelength;
 use super::{Bdpt, Scratch};
 use crate::integrator::{SampleSink, Sampler, Stats};
 use crate::material::{Bbrrdf, PathSide, ShiftSampling};
 use crate::scene::{NONE, Scene};
+use crate::transport::VertexKind;
 use crate::transport::spectral::with_spectrum;
-use crate::transport::{Transmittance, VertexKind, transmittance};
 
 /// The measurement contribution f_j of the path (eq. 6.2) without visibility and without the
 /// transmittance of its segments, with the pinhole importance We = 1 / (A cos⁴θ) of the whole
@@ -18,6 +22,7 @@ use crate::transport::{Transmittance, VertexKind, transmittance};
 /// both estimate the pixel's average radiance). A medium vertex contributes its collision
 /// coefficient per unit density and its phase function (no cosines); its density is part of the
 /// free-flight weight of the segment that sampled it.
+#[cfg(test)]
 fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     let k = path.k;
     let v = &path.v;
@@ -28,20 +33,20 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
     if f <= 0.0 {
         return 0.0;
     }
-    // x0 → x1: We(x0 → x1) = 1 / (A cos⁴θ) and the geometry term without a cosine at the pinhole.
+    // x0 → x1: the pinhole importance and the geometry term without a cosine at the pinhole
     let (mut w, d2) = v[0].towards(&v[1]);
-    let c0 = w.dot(scene.camera.forward) as f64;
-    if c0 <= 0.0 {
+    let head = camera_term(scene, w, d2, &v[1]);
+    if head <= 0.0 {
         return 0.0;
     }
-    f *= c0 * v[1].abs_cos(w) as f64 / d2 as f64;
-    f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
+    f *= head;
     // Each interior vertex: f = f_λ · f_dir, then the segment towards the light.
     for i in 1..=k - 2 {
         let x = &v[i];
-        let (li, lo, sh) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
+        let (lambda_in, lambda_out, shifted) = (path.lambda[i], path.lambda[i - 1], path.shift[i]);
         let (wi, d2) = x.towards(&v[i + 1]);
-        let f_l = with_spectrum!(scene, x, m => m.eval(li, lo, sh), else return 0.0);
+        let f_l =
+            with_spectrum!(scene, x, m => m.eval(lambda_in, lambda_out, shifted), else return 0.0);
         let (f_dir, cos) = (x.scattering(scene).eval(-w, wi), x.abs_cos(wi));
         if f_dir == 0.0 {
             return 0.0;
@@ -105,26 +110,18 @@ fn measurement_cached(
     if f <= 0.0 {
         return 0.0;
     }
-    // x0 → x1: We(x0 → x1) = 1 / (A cos⁴θ) and the geometry term without a cosine at the pinhole.
-    let mut w = if s >= 2 {
+    // x0 → x1: the pinhole importance and the geometry term without a cosine at the pinhole
+    let (head, mut w) = if s >= 2 {
         cam.camera(scene, cam_v);
-        let (c0, a, b) = cam.head;
-        if c0 <= 0.0 {
-            return 0.0;
-        }
-        f *= a;
-        f /= b;
-        cam.seg(s - 2).w
+        (cam.head, cam.seg(s - 2).w)
     } else {
         let (w, d2) = v[0].towards(&v[1]);
-        let c0 = w.dot(scene.camera.forward) as f64;
-        if c0 <= 0.0 {
-            return 0.0;
-        }
-        f *= c0 * v[1].abs_cos(w) as f64 / d2 as f64;
-        f /= scene.camera.film_area() as f64 * c0 * c0 * c0 * c0;
-        w
+        (camera_term(scene, w, d2, &v[1]), w)
     };
+    if head <= 0.0 {
+        return 0.0;
+    }
+    f *= head;
     // Interior vertices in path order: x1 … x(s−2) inside the camera prefix, x(s−1) and x_s at
     // the connection, x(s+1) … x(k−2) inside the light suffix (light vertex k − 1 − i).
     for i in 1..s.saturating_sub(1) {
@@ -210,8 +207,8 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     for i in 1..=k.saturating_sub(2) {
         let x = &v[i];
         let p = if x.fluorescent {
-            let (li, lo, sh) = (lambda[i], lambda[i - 1], shift[i]);
-            with_spectrum!(scene, x, m => wavelength_pdfs(m, li, lo, sh, b.shift), else continue)
+            let (lambda_in, lambda_out, shifted) = (lambda[i], lambda[i - 1], shift[i]);
+            with_spectrum!(scene, x, m => wavelength_pdfs(m, lambda_in, lambda_out, shifted, b.shift), else continue)
         } else if x.scatters() {
             NO_SHIFT
         } else {
@@ -237,18 +234,18 @@ const NO_SHIFT: [f64; 4] = [1.0, 0.0, 1.0, 0.0];
 #[inline(always)]
 fn wavelength_pdfs(
     m: &impl Bbrrdf,
-    li: f32,
-    lo: f32,
+    lambda_in: f32,
+    lambda_out: f32,
     shifted: bool,
     ws: ShiftSampling,
 ) -> [f64; 4] {
     if m.is_fluorescent() {
-        let big_pc = m.fluorescence_probability_camera(lo);
-        let big_pl = m.fluorescence_probability_light(li);
+        let big_pc = m.fluorescence_probability_camera(lambda_out);
+        let big_pl = m.fluorescence_probability_light(lambda_in);
         let (pc, pl) = if shifted {
             (
-                m.pdf(lo, li, true, PathSide::Camera, ws),
-                m.pdf(li, lo, true, PathSide::Light, ws),
+                m.pdf(lambda_out, lambda_in, true, PathSide::Camera, ws),
+                m.pdf(lambda_in, lambda_out, true, PathSide::Light, ws),
             )
         } else {
             // no fluorescent interaction: 1 − P_c and 1 − P_l, as `Bbrrdf::pdf` gives them
@@ -258,78 +255,6 @@ fn wavelength_pdfs(
     } else {
         NO_SHIFT
     }
-}
-
-/// A connection's contribution: XYZ, and the film position for light tracing.
-///
-/// The third element is (λ0, w · f / p): the spectral radiance sample behind the XYZ value, for
-/// spectral images.
-pub type Contribution = (glam::Vec3, Option<(f32, f32)>, (f32, f32));
-
-/// The CIE weight at λ0, kept in `last` for the next connection (most connections of a sample
-/// share λ0).
-#[inline]
-pub(super) fn xyz_weight(
-    scene: &Scene,
-    lambda0: f32,
-    last: &mut Option<(u32, glam::Vec3)>,
-) -> glam::Vec3 {
-    let bits = lambda0.to_bits();
-    match *last {
-        Some((l, xyz)) if l == bits => xyz,
-        _ => {
-            let xyz = scene.observer.xyz_weight(lambda0);
-            *last = Some((bits, xyz));
-            xyz
-        }
-    }
-}
-
-/// The transmittance of the connecting segment x(s−1) → x_s without media (shadow rays start
-/// on the surface side; light tracing's from x1 towards the pinhole).
-///
-/// Out of line: one copy of the inlined shadow ray instead of two in every connection, whose
-/// registers are already short (bdpt-forward on cornell-box 1.04× faster than inlined twice).
-#[inline(never)]
-pub(super) fn shadow(
-    scene: &Scene,
-    a: &Vertex,
-    b: &Vertex,
-    s: usize,
-    rays: &mut u64,
-) -> Transmittance {
-    let (a, b) = (a.endpoint(), b.endpoint());
-    if s == 1 {
-        transmittance(scene, b, a, rays)
-    } else {
-        transmittance(scene, a, b, rays)
-    }
-}
-
-/// Where light tracing (s = 1) splats: the film position at which the pinhole `x0` sees `x1`;
-/// `None` off the film.
-#[inline(always)]
-pub(super) fn splat_position(scene: &Scene, x0: &Vertex, x1: &Vertex) -> Option<(f32, f32)> {
-    let (px, py, _) = scene.camera.project((x1.p - x0.p).normalize())?;
-    Some((px, py))
-}
-
-/// The contribution w · f / p (eqs. 6.18/6.19, computed in f64) in XYZ with the CIE weight at
-/// λ0; a zero, negative or NaN value adds nothing, and a NaN or infinite one is counted.
-#[inline(always)]
-pub(super) fn weighted(
-    xyz_w: glam::Vec3,
-    lambda0: f32,
-    wfp: f64,
-    splat: Option<(f32, f32)>,
-    stats: &mut Stats,
-) -> Option<Contribution> {
-    let c = wfp as f32;
-    if c.is_nan() || c <= 0.0 || !c.is_finite() {
-        stats.nan_inf_rejected += !c.is_finite() as u64;
-        return None;
-    }
-    Some((xyz_w * c, splat, (lambda0, c)))
 }
 
 /// Index of the strategy image of (s, t): ordered by k = s + t, then s.
@@ -351,9 +276,8 @@ impl Bdpt {
             (ResetMode::Forward, _, _) => reset::forward_reset(scene, path, s, sampler),
             (ResetMode::Backward, _, 0) => {
                 // camera hit the emitter: λ(k−2) from its emission, then walk (Jung 6.3.3)
-                let li = path.v[k - 1].light as usize;
-                let mode = self.light_wavelengths;
-                path.lambda[k - 2] = scene.lights.sample_wavelength(li, sampler.next(), mode).0;
+                let (light, mode) = (path.v[k - 1].light, self.light_wavelengths);
+                path.lambda[k - 2] = light_wavelength(scene, light, mode, sampler).lambda;
                 reset::backward_reset(scene, path, k - 1, sampler);
             }
             (ResetMode::Backward, _, _) => {
@@ -368,10 +292,8 @@ impl Bdpt {
     pub(super) fn fresh_light_vertex(&self, scene: &Scene, sampler: &mut Sampler) -> Vertex {
         let mut lv = sample_light_vertex(scene, sampler);
         if self.mode == ResetMode::Backward {
-            let (li, mode) = (lv.light as usize, self.light_wavelengths);
-            let (l, _) = scene.lights.sample_wavelength(li, sampler.next(), mode);
-            lv.data.lambda_in = l;
-            lv.data.lambda_out = l;
+            let lambda = light_wavelength(scene, lv.light, self.light_wavelengths, sampler).lambda;
+            lv.data = Lambdas::both(lambda);
         }
         lv
     }
@@ -480,7 +402,7 @@ impl Bdpt {
                 let tr = super::media::connection(scene, path, s, mode, rays, sampler)?;
                 f *= tr as f64;
             } else {
-                let tr = shadow(scene, &path.v[s - 1], &path.v[s], s, rays);
+                let tr = Connection::shadow(scene, &path.v[s - 1], &path.v[s], s == 1, rays);
                 if tr.is_zero() {
                     return None;
                 }
@@ -508,7 +430,7 @@ impl Bdpt {
         let w = if self.only.is_some() {
             1.0
         } else if p_mis > 0.0 && p_mis.is_finite() {
-            path.mis_weight(s, p_mis, self.mode, self.mis)
+            path.mis_weight(s, self.mode, self.mis)
         } else {
             // With the free-flight pdfs at the final wavelengths folded in, p(s) may be 0 where
             // the reset moved a segment to a wavelength its sub-path could not collide at; the
@@ -527,15 +449,10 @@ impl Bdpt {
     fn deliver(&self, s: usize, t: usize, c: Contribution, sink: &mut SampleSink) {
         let (xyz, splat, (lambda0, radiance)) = c;
         let ok = match splat {
-            Some((px, py)) => {
-                let ok = sink.splat(px, py, xyz);
+            Some(at) => {
+                let ok = self::splat(sink, (s, t), at, xyz, self.strategy_images);
                 if ok {
-                    sink.spectral_splat(px, py, lambda0, radiance);
-                }
-                if ok && self.strategy_images {
-                    let pix = (py as u32).min(sink.height - 1) * sink.width
-                        + (px as u32).min(sink.width - 1);
-                    sink.aux(strategy_layer(s, t), pix, xyz);
+                    sink.spectral_splat(at.0, at.1, lambda0, radiance);
                 }
                 ok
             }
@@ -560,7 +477,8 @@ impl Bdpt {
 /// light sub-path's first vertex instead of a fresh one), apply the integrator's reset and fill
 /// all pdfs, free-flight pdfs included (test hook: MIS weights of all strategies for one path).
 /// Returns `None` when the path carries no light.
-pub fn connect_for_test(
+#[cfg(test)]
+pub(crate) fn connect_for_test(
     b: &Bdpt,
     scene: &Scene,
     scratch: &Scratch,

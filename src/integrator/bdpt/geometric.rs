@@ -105,33 +105,54 @@ pub trait Walker<P> {
     fn needs_far(&self) -> bool;
 }
 
-/// Extend a sub-path `verts` (holding at least its first vertex) along `ray`, leaving the last
-/// vertex with solid-angle pdf `pdf_dir` in medium `medium`, until it holds `max_vertices`
-/// vertices, the ray escapes, a vertex does not scatter (`material == NONE`: emitter or black
-/// surface) or the walker says otherwise. Each new vertex gets its `pdf_fwd` (directional only:
-/// solid angle to area, no free-flight pdf) and a default payload, then the walker fills the
-/// payload. A scattering vertex then samples its lobe (sampler: two values), which sets its
-/// predecessor's `pdf_rev` (unless that is the pinhole), as pbrt-v4 does; both lobes are sampled
-/// exactly, so the directional throughput f·|cos|/pdf of every bounce is 1. Rays cast are
-/// added to `rays`. `log` (media scenes only) receives the segments.
-#[allow(clippy::too_many_arguments)]
+/// Where a sub-path's walk starts: the ray leaving its first vertex, the solid-angle pdf of that
+/// direction and the medium the ray starts in.
+#[derive(Clone, Copy, Debug)]
+pub struct Start {
+    pub ray: Ray,
+    pub pdf_dir: f32,
+    pub medium: u32,
+}
+
+/// What a walk fills: the sub-path's vertices (holding at least its first) up to
+/// `max_vertices`, and in media scenes the log of its segments.
+pub struct Trace<'a, P> {
+    pub verts: &'a mut Vec<Vertex<P>>,
+    pub max_vertices: usize,
+    pub log: Option<&'a mut SegmentLog>,
+}
+
+/// Extend a sub-path (`trace.verts`, holding at least its first vertex) from `start` until it
+/// holds `max_vertices` vertices, the ray escapes, a vertex does not scatter (`material ==
+/// NONE`: emitter or black surface) or the walker says otherwise; returns the rays cast. Each
+/// new vertex gets its `pdf_fwd` (directional only: solid angle to area, no free-flight pdf) and
+/// a default payload, then the walker fills the payload. A scattering vertex then samples its
+/// lobe (sampler: two values), which sets its predecessor's `pdf_rev` (unless that is the
+/// pinhole), as pbrt-v4 does; both lobes are sampled exactly, so the directional throughput
+/// f·|cos|/pdf of every bounce is 1. `trace.log` (media scenes only) receives the segments.
 #[inline]
 pub fn random_walk<P: Copy + Default>(
     scene: &Scene,
-    mut ray: Ray,
-    mut pdf_dir: f32,
-    mut medium: u32,
-    verts: &mut Vec<Vertex<P>>,
-    max_vertices: usize,
+    start: Start,
+    trace: Trace<P>,
     sampler: &mut Sampler,
-    rays: &mut u64,
-    mut log: Option<&mut SegmentLog>,
     walker: &mut impl Walker<P>,
-) {
+) -> u64 {
+    let Start {
+        mut ray,
+        mut pdf_dir,
+        mut medium,
+    } = start;
+    let Trace {
+        verts,
+        max_vertices,
+        mut log,
+    } = trace;
+    let mut rays = 0u64;
     let mut crossings = 0usize;
     let mut far_start = f32::INFINITY;
     while verts.len() < max_vertices {
-        *rays += 1;
+        rays += 1;
         let hit = scene.intersect(&ray, f32::INFINITY);
         let mut collision = None;
         // Squared distance from the last vertex to the new one.
@@ -154,13 +175,13 @@ pub fn random_walk<P: Copy + Default>(
             (v.p, v.n)
         } else {
             let Some(it) = hit else {
-                return;
+                return rays;
             };
             if log.is_some() && it.material == NONE && it.light == NONE {
                 // An index-matched boundary: not a vertex of the path.
                 crossings += 1;
                 if crossings > MAX_CROSSINGS {
-                    return;
+                    return rays;
                 }
                 medium = scene.medium_after(&it, ray.d, medium);
                 ray = cross_boundary_ray(it.p, it.n, ray.d);
@@ -181,21 +202,21 @@ pub fn random_walk<P: Copy + Default>(
             }
             (it.p, it.n)
         };
-        let seg = log.as_deref_mut().and_then(|l| l.segs.last_mut());
+        let seg = log.as_deref_mut().and_then(|log| log.segs.last_mut());
         match walker.on_vertex(verts, seg, sampler) {
             Step::Continue => {}
-            Step::Stop => return,
+            Step::Stop => return rays,
             Step::Discard => {
                 verts.pop();
                 if let Some(log) = log.as_deref_mut() {
                     log.segs.pop();
                 }
-                return;
+                return rays;
             }
         }
         let cur = verts.len() - 1;
         if !verts[cur].scatters() {
-            return;
+            return rays;
         }
         let lobe = verts[cur].scattering(scene);
         let wo = -ray.d;
@@ -208,7 +229,7 @@ pub fn random_walk<P: Copy + Default>(
         }
         let medium_vertex = verts[cur].kind == VertexKind::Medium;
         far_start = if medium_vertex && walker.needs_far() {
-            distance_to_surface(scene, cur_p, -s.wi, rays)
+            distance_to_surface(scene, cur_p, -s.wi, &mut rays)
         } else {
             f32::INFINITY
         };
@@ -225,6 +246,7 @@ pub fn random_walk<P: Copy + Default>(
         }
         crossings = 0;
     }
+    rays
 }
 
 /// A walker for scenes without media: only the vertex callback.

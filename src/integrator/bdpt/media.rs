@@ -170,12 +170,13 @@ pub fn distance_pdfs(scene: &Scene, path: &mut FullPath, mode: Tracking) {
     for i in 0..path.k - 1 {
         let seg = path.seg[i];
         let st = seg.stretches(&path.stretches);
-        let l = path.lambda[i];
+        let lambda = path.lambda[i];
         let end = path.v[i + 1].kind == VertexKind::Medium;
         let start = path.v[i].kind == VertexKind::Medium;
-        path.dist_fwd[i] = distance_pdf(scene, st, false, end, seg.far_end, l, false, mode) as f64;
+        path.dist_fwd[i] =
+            distance_pdf(scene, st, false, end, seg.far_end, lambda, false, mode) as f64;
         path.dist_rev[i] =
-            distance_pdf(scene, st, true, start, seg.far_start, l, true, mode) as f64;
+            distance_pdf(scene, st, true, start, seg.far_start, lambda, true, mode) as f64;
     }
 }
 

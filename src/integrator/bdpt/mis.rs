@@ -6,6 +6,7 @@
 //! camera path that hits the emitter. ŝ = 0 (light paths hitting the pinhole) cannot happen.
 
 use super::subpath::Vertex;
+use super::weight::mis_walk;
 use crate::integrator::MisHeuristic;
 use crate::transport::{Segment, Stretch};
 use std::cell::RefCell;
@@ -60,6 +61,8 @@ pub struct FullPath {
 struct Products {
     a: Vec<f64>,
     b: Vec<f64>,
+    /// p_Λ(ŝ) at index ŝ − 1.
+    lam: Vec<f64>,
     out: Vec<f64>,
 }
 
@@ -230,80 +233,111 @@ impl FullPath {
         out.extend_from_slice(&pr.out);
     }
 
-    /// p(ŝ) for every ŝ into `pr.out`, in two passes: forward stores the camera prefixes and
-    /// walks ŝ down with the light suffixes, backward stores the light suffixes and walks ŝ up
-    /// with the camera prefixes (the direction in which its stopping vertex is met first).
-    fn fill_products(&self, mode: ResetMode, pr: &mut Products) {
+    /// p_Λ(ŝ) for every ŝ into `pr.lam` (index ŝ − 1) in O(k): forward stores the camera's
+    /// prefix products and walks ŝ down, backward stores the light's suffix products and walks
+    /// ŝ up (the direction in which its stopping vertex is met first).
+    fn fill_wavelength_pdfs(&self, mode: ResetMode, pr: &mut Products) {
         let k = self.k;
-        pr.out.clear();
-        if k < 2 {
-            return;
-        }
         let last = k - 2; // last interior vertex
-        pr.out.resize(k, 0.0);
         if pr.a.len() <= k {
             pr.a.resize(k + 1, 0.0);
             pr.b.resize(k + 1, 0.0);
         }
-        let (a, b, out) = (&mut pr.a[..=k], &mut pr.b[..=k], &mut pr.out[..k]);
-        let (pa_fwd, pa_rev) = (&self.pa_fwd[..k], &self.pa_rev[..k]);
+        pr.lam.clear();
+        pr.lam.resize(k, 0.0);
+        let (b, lam) = (&mut pr.b[..=k], &mut pr.lam[..k]);
         let (pc, pl, shift) = (&self.pc[..k], &self.pl[..k], &self.shift[..k]);
         let (pc0, ple) = (self.pc0, self.ple);
         match mode {
             ResetMode::Forward => {
-                // a[i] = ∏_{m=1}^{i} pa_fwd[m], b[i] = ∏_{m=1}^{i} pc[m] (left to right, as `prod`)
-                (a[0], b[0]) = (1.0, 1.0);
+                // b[i] = ∏_{m=1}^{i} pc[m] (left to right, as `prod`)
+                b[0] = 1.0;
                 for i in 1..=last {
-                    (a[i], b[i]) = (a[i - 1] * pa_fwd[i], b[i - 1] * pc[i]);
+                    b[i] = b[i - 1] * pc[i];
                 }
-                a[k - 1] = a[k - 2] * pa_fwd[k - 1];
                 // eqs. 6.9/6.10: j = first shifting vertex in [ŝ, k−2], the last one met walking
-                // ŝ down; rev = ∏_{m=ŝ}^{k−1} pa_rev[m], light = ∏_{m=ŝ+1}^{k−2} pl[m] at a shift
-                let (mut rev, mut light) = (1.0, 1.0);
+                // ŝ down; light = ∏_{m=ŝ+1}^{k−2} pl[m] at a shift
+                let mut light = 1.0;
                 let mut wl = pc0 * b[last];
                 for s_hat in (2..=k).rev() {
-                    if s_hat < k {
-                        rev *= pa_rev[s_hat];
-                    }
                     if s_hat <= last {
                         if shift[s_hat] {
                             wl = pc0 * b[s_hat - 1] * self.big_pc[s_hat] * (light * ple);
                         }
                         light *= pl[s_hat];
                     }
-                    out[s_hat - 1] = a[s_hat - 1] * rev * wl;
+                    lam[s_hat - 1] = wl;
                 }
                 // ŝ = 1: light tracing, every wavelength from the light sub-path (Jung 6.3.2)
                 let light = if last >= 1 { pl[1] * light } else { light };
-                out[0] = (pa_rev[1] * rev) * (light * ple);
+                lam[0] = light * ple;
             }
             ResetMode::Backward => {
-                // a[i] = ∏_{m=i}^{k−1} pa_rev[m], b[j] = ∏_{m=j+1}^{k−2} pl[m] · ple
-                a[k] = 1.0;
-                for i in (1..k).rev() {
-                    a[i] = pa_rev[i] * a[i + 1];
-                }
+                // b[j] = ∏_{m=j+1}^{k−2} pl[m] · ple
                 let mut light = 1.0;
                 for j in (0..=last).rev() {
                     b[j] = light * ple;
                     light *= pl[j];
                 }
                 // ŝ = 1: light tracing (Jung 6.3.2)
-                out[0] = a[1] * b[0];
+                lam[0] = b[0];
                 // eqs. 6.11/6.13: j = last shifting vertex in [1, min(ŝ−1, k−2)], the last one
-                // met walking ŝ up; fwd = ∏_{m=1}^{ŝ−1} pa_fwd[m], cam = ∏_{m=1}^{j−1} pc[m]
-                let (mut fwd, mut cam) = (1.0, 1.0);
+                // met walking ŝ up; cam = ∏_{m=1}^{j−1} pc[m]
+                let mut cam = 1.0;
                 let mut wl = b[0];
                 for s_hat in 2..=k {
                     let i = s_hat - 1;
-                    fwd *= pa_fwd[i];
                     if i <= last {
                         if shift[i] {
                             wl = pc0 * cam * self.big_pl[i] * b[i];
                         }
                         cam *= pc[i];
                     }
-                    out[s_hat - 1] = fwd * a[s_hat] * wl;
+                    lam[s_hat - 1] = wl;
+                }
+            }
+        }
+    }
+
+    /// p(ŝ) for every ŝ into `pr.out`: the area pdf (eq. 6.3) as a camera prefix times a light
+    /// suffix, times p_Λ(ŝ) (`fill_wavelength_pdfs`).
+    fn fill_products(&self, mode: ResetMode, pr: &mut Products) {
+        let k = self.k;
+        pr.out.clear();
+        if k < 2 {
+            return;
+        }
+        self.fill_wavelength_pdfs(mode, pr);
+        pr.out.resize(k, 0.0);
+        let (a, lam, out) = (&mut pr.a[..=k], &pr.lam[..k], &mut pr.out[..k]);
+        let (pa_fwd, pa_rev) = (&self.pa_fwd[..k], &self.pa_rev[..k]);
+        match mode {
+            ResetMode::Forward => {
+                // a[i] = ∏_{m=1}^{i} pa_fwd[m]; rev = ∏_{m=ŝ}^{k−1} pa_rev[m] walking ŝ down
+                a[0] = 1.0;
+                for i in 1..k {
+                    a[i] = a[i - 1] * pa_fwd[i];
+                }
+                let mut rev = 1.0;
+                for s_hat in (2..=k).rev() {
+                    if s_hat < k {
+                        rev *= pa_rev[s_hat];
+                    }
+                    out[s_hat - 1] = a[s_hat - 1] * rev * lam[s_hat - 1];
+                }
+                out[0] = (pa_rev[1] * rev) * lam[0];
+            }
+            ResetMode::Backward => {
+                // a[i] = ∏_{m=i}^{k−1} pa_rev[m]; fwd = ∏_{m=1}^{ŝ−1} pa_fwd[m] walking ŝ up
+                a[k] = 1.0;
+                for i in (1..k).rev() {
+                    a[i] = pa_rev[i] * a[i + 1];
+                }
+                out[0] = a[1] * lam[0];
+                let mut fwd = 1.0;
+                for s_hat in 2..=k {
+                    fwd *= pa_fwd[s_hat - 1];
+                    out[s_hat - 1] = fwd * a[s_hat] * lam[s_hat - 1];
                 }
             }
         }
@@ -334,21 +368,18 @@ impl FullPath {
         }
     }
 
-    /// MIS weight of strategy s given its own pdf `p_s`, in O(k) (`strategy_pdfs`).
-    pub fn mis_weight(&self, s: usize, p_s: f64, mode: ResetMode, h: MisHeuristic) -> f64 {
-        let e = h.exponent() as f64;
+    /// MIS weight of strategy s (eq. 6.15 generalised to the power heuristic) by the ratio walk
+    /// of every BDPT (`super::weight::mis_walk`) over the path's area pdfs, with the
+    /// wavelength pdfs p_Λ(ŝ) of the reset (`fill_wavelength_pdfs`). The strategy's own pdf
+    /// must be positive and finite. O(k).
+    pub fn mis_weight(&self, s: usize, mode: ResetMode, h: MisHeuristic) -> f64 {
         let mut pr = self.products.borrow_mut();
-        self.fill_products(mode, &mut pr);
-        let mut sum = 0.0;
-        for (i, &p) in pr.out.iter().enumerate() {
-            if i + 1 == s {
-                sum += 1.0;
-                continue;
-            }
-            let r = p / p_s;
-            sum += if e == 1.0 { r } else { r * r };
-        }
-        1.0 / sum
+        self.fill_wavelength_pdfs(mode, &mut pr);
+        let (k, lam) = (self.k, &pr.lam);
+        let inv_own = 1.0 / lam[s - 1];
+        let lower = (1..s).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
+        let upper = (s..k).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
+        mis_walk(lower, upper, s, |s_hat| lam[s_hat - 1] * inv_own, h).1
     }
 }
 

@@ -16,6 +16,7 @@
 
 pub mod allbins;
 pub(crate) mod cache;
+pub mod connection;
 pub mod evaluate;
 pub mod geometric;
 pub mod media;
@@ -23,13 +24,16 @@ pub mod mis;
 pub(crate) mod plain;
 pub mod reset;
 pub mod subpath;
+#[cfg(test)]
+mod tests;
+pub mod wavelength;
+pub mod weight;
 
 pub use crate::transport::VertexKind;
-pub use evaluate::{connect_for_test, strategy_layer};
+pub use evaluate::strategy_layer;
 pub use geometric::SegmentLog;
 pub use mis::{FullPath, ResetMode};
-pub use plain::{PlainTrial, plain_for_test};
-pub use subpath::{Vertex, camera_subpath, light_subpath};
+pub use subpath::{Buffers, Sampling, Vertex, camera_subpath, light_subpath};
 
 use crate::integrator::{
     Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, SampleSink, Sampler,
@@ -38,10 +42,11 @@ use crate::material::ShiftSampling;
 use crate::medium::Tracking;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::cie::CameraWavelengths;
+use wavelength::camera_wavelength;
 
 pub struct Bdpt {
     pub(crate) mode: ResetMode,
-    pub(crate) max_depth: u32,
+    pub(crate) depth: Depth,
     pub(crate) camera_wavelengths: CameraWavelengths,
     pub(crate) shift: ShiftSampling,
     pub(crate) light_wavelengths: LightWavelengths,
@@ -92,7 +97,7 @@ impl Bdpt {
         }
         Ok(Bdpt {
             mode,
-            max_depth: o.max_depth,
+            depth: Depth::new(o),
             camera_wavelengths: o.camera_wavelengths,
             shift: ShiftSampling::new(o.wavelength_sampling, scene.domain),
             light_wavelengths: o.light_wavelengths,
@@ -119,8 +124,8 @@ impl Bdpt {
         self.only.is_none_or(|o| o == (s, t))
     }
 
-    /// Trace both sub-paths of one sample into `scratch` (test hook).
-    pub fn trace_subpaths(
+    /// Trace both sub-paths of one sample into `scratch`.
+    pub(crate) fn trace_subpaths(
         &self,
         scene: &Scene,
         x: f32,
@@ -129,39 +134,29 @@ impl Bdpt {
         scratch: &mut Scratch,
         stats: &mut crate::integrator::Stats,
     ) {
-        let (lambda0, _) = scene
-            .observer
-            .sample_wavelength(self.camera_wavelengths, sampler.next());
-        let md = self.max_depth as usize;
+        let lambda0 = camera_wavelength(scene, self.camera_wavelengths, sampler).lambda;
         let media = scene.has_media;
-        camera_subpath(
-            scene,
-            x,
-            y,
-            lambda0,
-            md + 1,
-            self.shift,
-            self.tracking,
-            self.mode == ResetMode::Forward,
-            sampler,
-            stats,
-            &mut scratch.cam,
-            media.then_some(&mut scratch.cam_log),
-            &mut scratch.spectral,
-        );
-        light_subpath(
-            scene,
-            md,
-            self.light_wavelengths,
-            self.shift,
-            self.tracking,
-            self.mode == ResetMode::Backward,
-            sampler,
-            stats,
-            &mut scratch.light,
-            media.then_some(&mut scratch.light_log),
-            &mut scratch.spectral,
-        );
+        let how = |stop_on_zero| Sampling {
+            shift: self.shift,
+            tracking: self.tracking,
+            stop_on_zero,
+        };
+        let forward = self.mode == ResetMode::Forward;
+        let cam = Buffers {
+            out: &mut scratch.cam,
+            log: media.then_some(&mut scratch.cam_log),
+            spectral: &mut scratch.spectral,
+        };
+        let n = self.depth.camera_vertices();
+        let rng = (&mut *sampler, &mut *stats);
+        camera_subpath(scene, (x, y), lambda0, n, how(forward), rng, cam);
+        let light = Buffers {
+            out: &mut scratch.light,
+            log: media.then_some(&mut scratch.light_log),
+            spectral: &mut scratch.spectral,
+        };
+        let (n, mode) = (self.depth.light_vertices(), self.light_wavelengths);
+        light_subpath(scene, n, mode, how(!forward), (sampler, stats), light);
         scratch.cam_cache.invalidate();
         scratch.light_cache.invalidate();
         scratch.prefix = 0;
@@ -171,6 +166,55 @@ impl Bdpt {
             // plain connections need scenes without media (`plain`)
             scratch.plain.reset(&scratch.cam, &scratch.light);
         }
+    }
+}
+
+/// The length limit of a bidirectional integrator's paths, `--max-depth` segments, and what it
+/// means for its sub-paths; written once here instead of at each call site.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Depth {
+    /// The most segments a path may have.
+    pub segments: usize,
+}
+
+impl Depth {
+    pub fn new(o: &IntegratorOptions) -> Self {
+        Depth {
+            segments: o.max_depth as usize,
+        }
+    }
+
+    /// A camera sub-path's most vertices: the pinhole, and one past the last scattering
+    /// vertex, which only a camera hit on an emitter (t = 0) uses.
+    #[inline]
+    pub fn camera_vertices(self) -> usize {
+        self.segments + 1
+    }
+
+    /// A light sub-path's most vertices.
+    #[inline]
+    pub fn light_vertices(self) -> usize {
+        self.segments
+    }
+
+    /// Whether strategy (s, t) makes a path short enough: s + t vertices, s + t − 1 segments.
+    #[inline]
+    pub fn allows(self, s: usize, t: usize) -> bool {
+        s + t - 1 <= self.segments
+    }
+
+    /// The capacity of the per-thread vertex buffers.
+    pub fn capacity(self) -> usize {
+        self.segments + 2
+    }
+}
+
+/// The auxiliary layers of a BDPT: the strategy images when asked for (`--strategy-images`).
+pub fn strategy_images(wanted: bool, depth: Depth) -> Vec<String> {
+    if wanted {
+        strategy_layer_names(depth.segments)
+    } else {
+        Vec::new()
     }
 }
 
@@ -200,7 +244,7 @@ impl Integrator for Bdpt {
     type Scratch = Scratch;
 
     fn scratch(&self, scene: &Scene) -> Scratch {
-        let n = self.max_depth as usize + 2;
+        let n = self.depth.capacity();
         Scratch {
             cam: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
@@ -218,10 +262,7 @@ impl Integrator for Bdpt {
     }
 
     fn aux_layers(&self) -> Vec<String> {
-        if !self.strategy_images {
-            return Vec::new();
-        }
-        strategy_layer_names(self.max_depth as usize)
+        strategy_images(self.strategy_images, self.depth)
     }
 
     fn sample(
@@ -234,7 +275,7 @@ impl Integrator for Bdpt {
         sink: &mut SampleSink,
     ) {
         self.trace_subpaths(scene, x, y, sampler, scratch, sink.stats);
-        let md = self.max_depth as usize;
+        let md = self.depth.segments;
         let (nc, nl) = (scratch.cam.len(), scratch.light.len());
         // t = 0: the camera path hits an emitter
         for s in 2..=nc {
@@ -260,7 +301,7 @@ impl Integrator for Bdpt {
                 break;
             }
             for t in 2..=nl {
-                if s + t - 1 > md {
+                if !self.depth.allows(s, t) {
                     break;
                 }
                 if self.wanted(s, t) {

@@ -16,42 +16,45 @@
 //! the products are taken in another order (tests/bdpt_plain.rs compares them connection by
 //! connection).
 
-use super::cache::{Seg, SpectralCache, SubpathCache};
-use super::evaluate::{Contribution, shadow, splat_position, weighted, xyz_weight};
+use super::cache::{SpectralCache, SubpathCache};
+use super::connection::{
+    Connection, Contribution, camera_term, splat_position, weighted, xyz_weight,
+};
 use super::mis::ResetMode;
 use super::subpath::Vertex;
+use super::wavelength::{LambdaKey, light_wavelength};
+use super::weight::mis_walk;
 use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
 use crate::transport::Scattering;
-use crate::transport::scattering::{DIFFUSE_F, diffuse_joins, diffuse_pdf_joined};
 use glam::Vec3;
 
 /// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
 /// (camera) or L(n + 2) (light).
 #[derive(Clone, Debug, Default)]
 struct Products {
-    key: Option<u32>,
+    key: Option<LambdaKey>,
     f: Vec<f64>,
 }
 
 impl Products {
-    /// Entry `n` at wavelength `l`: `first` is entry 0, `factor(i)` the factor of sub-path vertex
+    /// Entry `n` at wavelength `lambda`: `first` is entry 0, `factor(i)` the factor of sub-path vertex
     /// i (entry i = entry i − 1 · factor(i)); a product that reached 0 stays 0, as the direct
     /// measurement stops there.
     #[inline]
     fn get(
         &mut self,
-        l: f32,
+        lambda: f32,
         n: usize,
         first: impl FnOnce() -> f64,
         mut factor: impl FnMut(usize) -> f64,
     ) -> f64 {
-        if self.key == Some(l.to_bits()) && n < self.f.len() {
+        if self.key == Some(LambdaKey::of(lambda)) && n < self.f.len() {
             return self.f[n];
         }
-        if self.key != Some(l.to_bits()) {
-            self.key = Some(l.to_bits());
+        if self.key != Some(LambdaKey::of(lambda)) {
+            self.key = Some(LambdaKey::of(lambda));
             self.f.clear();
         }
         if self.f.is_empty() {
@@ -112,8 +115,8 @@ fn factor(f_l: Option<f32>, f_dir: f32, g: f64) -> f64 {
 
 /// f_λ at λ* of a vertex that keeps the wavelength.
 #[inline(always)]
-fn f_lambda(scene: &Scene, spec: &mut SpectralCache, x: &Vertex, l: f32) -> Option<f32> {
-    spec.f_lambda(scene, x, l, l, false)
+fn f_lambda(scene: &Scene, spec: &mut SpectralCache, x: &Vertex, lambda: f32) -> Option<f32> {
+    spec.f_lambda(scene, x, lambda, lambda, false)
 }
 
 /// The emission spectrum and wavelength pdfs at the wavelength and light last seen (most
@@ -121,11 +124,11 @@ fn f_lambda(scene: &Scene, spec: &mut SpectralCache, x: &Vertex, l: f32) -> Opti
 #[derive(Clone, Copy, Debug, Default)]
 struct Emitters {
     /// (light, bits of λ) → L_e(λ) of that light's spectrum.
-    le: Option<((u32, u32), f32)>,
+    le: Option<((u32, LambdaKey), f32)>,
     /// (light, bits of λ) → p_l(λ | light) (eq. 6.5).
-    ple: Option<((u32, u32), f64)>,
+    ple: Option<((u32, LambdaKey), f64)>,
     /// bits of λ → p_c(λ) (eq. 6.4).
-    pc0: Option<(u32, f64)>,
+    pc0: Option<(LambdaKey, f64)>,
 }
 
 /// A cached value of `key`, computed by `eval` on a miss.
@@ -147,14 +150,14 @@ fn cached<K: PartialEq + Copy, V: Copy>(
 
 /// L_e at λ* of emitter vertex `e` towards `to`.
 #[inline]
-fn emitted(scene: &Scene, cache: &mut Emitters, e: &Vertex, to: Vec3, l: f32) -> f64 {
+fn emitted(scene: &Scene, cache: &mut Emitters, e: &Vertex, to: Vec3, lambda: f32) -> f64 {
     let light = &scene.lights[e.light as usize];
     // the emitter's directional profile needs only the side of `to`, not a unit vector
     if !light.emits_towards(e.n, to - e.p) {
         return 0.0;
     }
-    let f = cached(&mut cache.le, (e.light, l.to_bits()), || {
-        light.spectrum.eval(l)
+    let f = cached(&mut cache.le, (e.light, LambdaKey::of(lambda)), || {
+        light.spectrum.eval(lambda)
     }) as f64;
     if f > 0.0 { f } else { 0.0 }
 }
@@ -168,15 +171,21 @@ fn camera_prefix(
     v: &[Vertex],
     spec: &mut SpectralCache,
     s: usize,
-    l: f32,
+    lambda: f32,
 ) -> f64 {
     cam.camera(scene, v);
     let first = || {
-        let (c0, a, b) = cam.head;
-        if c0 <= 0.0 { 0.0 } else { a / b }
+        let head = cam.head;
+        if head <= 0.0 { 0.0 } else { head }
     };
-    let factor = |i: usize| factor(f_lambda(scene, spec, &v[i], l), cam.dir(i), cam.seg(i).g);
-    products.get(l, s - 2, first, factor)
+    let factor = |i: usize| {
+        factor(
+            f_lambda(scene, spec, &v[i], lambda),
+            cam.dir(i),
+            cam.seg(i).g,
+        )
+    };
+    products.get(lambda, s - 2, first, factor)
 }
 
 /// L(t) at λ: the emission of y0 towards y1 and the factors of the light vertices y1 … y(t−2)
@@ -189,12 +198,12 @@ fn light_suffix(
     v: &[Vertex],
     (spec, emit): (&mut SpectralCache, &mut Emitters),
     t: usize,
-    l: f32,
+    lambda: f32,
 ) -> f64 {
     lc.light(scene, v);
-    let first = || emitted(scene, emit, &v[0], v[1].p, l);
-    let factor = |j: usize| factor(f_lambda(scene, spec, &v[j], l), lc.dir(j), lc.seg(j).g);
-    products.get(l, t - 2, first, factor)
+    let first = || emitted(scene, emit, &v[0], v[1].p, lambda);
+    let factor = |j: usize| factor(f_lambda(scene, spec, &v[j], lambda), lc.dir(j), lc.seg(j).g);
+    products.get(lambda, t - 2, first, factor)
 }
 
 /// The pdfs that the connection changes (pbrt `Vertex::Pdf`): pa_fwd of x_s and pa_rev of
@@ -205,60 +214,46 @@ struct Changed {
     rev: [(usize, f64); 2],
 }
 
-/// The strategy's own area pdf p_A(s) (eq. 6.3) and its MIS weight among ŝ = 1 … k (eq. 6.15
-/// generalised to the power heuristic) in one pass over x1 … x(k−1): p(ŝ)/p(s) is a product of
-/// ratios pa_rev/pa_fwd below s and pa_fwd/pa_rev from s on (pbrt's `MISWeight`, summed by
-/// Horner's rule below s), times p_Λ(ŝ)/p_Λ(s) for the two wavelength pdfs `below` (ŝ = 1)
-/// and `above` (ŝ ≥ 2) of a path that does not shift. The camera prefix keeps its sub-path's
-/// pdfs and the light suffix (`up`, x_s … x(k−1)) is turned around.
+/// The strategy's own area pdf p_A(s) (eq. 6.3) and its MIS weight among ŝ = 1 … k
+/// (`super::weight::mis_walk`) over the sub-paths' stored pdfs with the ones the connection
+/// changed put in: the camera prefix keeps its sub-path's pdfs and the light suffix (x_s …
+/// x(k−1)) is turned around. A path that does not shift has two wavelength pdfs, `below`
+/// (ŝ = 1) and `above` (ŝ ≥ 2).
 #[inline]
-fn area_and_weight<'a>(
-    ends: &Ends<'a>,
+fn area_and_weight(
+    ends: &Ends,
     changed: Changed,
     (below, above): (f64, f64),
     h: MisHeuristic,
 ) -> (f64, f64) {
     let s = ends.s;
-    let power = |r: f64| if h == MisHeuristic::Power { r * r } else { r };
     let own = if s == 1 { below } else { above };
-    let (mut area, mut down) = (1.0, 0.0);
-    for (m, v) in ends.cam[..s].iter().enumerate().skip(1) {
-        let fwd = v.pdf_fwd as f64;
+    let (below, above) = (below / own, above / own);
+    let lambda_ratio = |s_hat: usize| if s_hat == 1 { below } else { above };
+    let lower = ends.cam[1..s].iter().zip(1..).map(|(v, m)| {
         let rev = match changed.rev {
             [(i, r), _] | [_, (i, r)] if i == m => r,
             _ => v.pdf_rev as f64,
         };
-        // p(ŝ)/p(s) for ŝ = 1 … m: each gains the factor of x_m (ŝ = 1 its p_Λ ratio)
-        area *= fwd;
-        let q = power(rev / fwd);
-        down = if m == 1 {
-            q * power(below / own)
-        } else {
-            q * (1.0 + down)
-        };
-    }
-    let (mut up, mut run) = (0.0, 1.0);
-    let above = power(above / own);
-    let mut pdf = |fwd: f64, rev: f64| {
-        // p(m + 1)/p(s) = p(m)/p(s) · pa_fwd[m] / pa_rev[m]
-        area *= rev;
-        run *= power(fwd / rev);
-        up += run * above;
-    };
+        (v.pdf_fwd as f64, rev)
+    });
     match ends.fresh {
-        Some(v) => pdf(changed.fwd_s, v.pdf_fwd as f64),
+        Some(v) => {
+            let upper = std::iter::once((changed.fwd_s, v.pdf_fwd as f64));
+            mis_walk(lower, upper, s, lambda_ratio, h)
+        }
         None => {
-            for (j, v) in ends.light[..ends.t].iter().rev().enumerate() {
+            let upper = ends.light[..ends.t].iter().rev().enumerate().map(|(j, v)| {
                 let fwd = if j == 0 {
                     changed.fwd_s
                 } else {
                     v.pdf_rev as f64
                 };
-                pdf(fwd, v.pdf_fwd as f64);
-            }
+                (fwd, v.pdf_fwd as f64)
+            });
+            mis_walk(lower, upper, s, lambda_ratio, h)
         }
     }
-    (area, 1.0 / (1.0 + down + up))
 }
 
 /// The per-sample caches a plain connection reads and extends.
@@ -347,24 +342,20 @@ impl Bdpt {
         let e = ends.e;
         // λ* (Jung 6.3): light tracing keeps the light's, the forward reset the camera's, the
         // backward reset the emitter's (t = 0: sampled from its emission, Jung 6.3.3)
-        let l = match (s, t, self.mode) {
+        let lambda = match (s, t, self.mode) {
             (1, ..) => light[0].data.lambda_out,
             (_, _, ResetMode::Forward) => cam[0].data.lambda_in,
             (_, 0, ResetMode::Backward) => {
-                let mode = self.light_wavelengths;
-                scene
-                    .lights
-                    .sample_wavelength(e.light as usize, sampler.next(), mode)
-                    .0
+                light_wavelength(scene, e.light, self.light_wavelengths, sampler).lambda
             }
             (_, 1, ResetMode::Backward) => e.data.lambda_out,
             (_, _, ResetMode::Backward) => light[0].data.lambda_out,
         };
-        let xyz_w = xyz_weight(scene, l, xyz);
+        let xyz_w = xyz_weight(scene, lambda, xyz);
         if xyz_w == Vec3::ZERO {
             return None;
         }
-        let (mut f, conn) = measurement(scene, &ends, l, &mut caches)?;
+        let (mut f, conn) = measurement(scene, &ends, lambda, &mut caches)?;
         let splat = if s == 1 {
             Some(splat_position(scene, &cam[0], ends.b)?)
         } else {
@@ -374,11 +365,11 @@ impl Bdpt {
         // forward reset's camera strategies, the emitter's otherwise
         let emit = &mut caches.plain.emit;
         let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
-        let pc0 = cached(&mut emit.pc0, l.to_bits(), || {
-            scene.observer.pdf_wavelength(cw, l) as f64
+        let pc0 = cached(&mut emit.pc0, LambdaKey::of(lambda), || {
+            scene.observer.pdf_wavelength(cw, lambda) as f64
         });
-        let ple = cached(&mut emit.ple, (e.light, l.to_bits()), || {
-            scene.lights.pdf_wavelength(e.light as usize, l, lw) as f64
+        let ple = cached(&mut emit.ple, (e.light, LambdaKey::of(lambda)), || {
+            scene.lights.pdf_wavelength(e.light as usize, lambda, lw) as f64
         });
         let wl = match self.mode {
             ResetMode::Forward => (ple, pc0),
@@ -391,11 +382,11 @@ impl Bdpt {
         // the shadow ray last, so that the weight's divisions overlap its traversal (bdpt-forward
         // on cornell-box 1.013× faster than with the ray first)
         if t >= 1 {
-            let tr = shadow(scene, ends.a, ends.b, s, &mut stats.rays);
+            let tr = Connection::shadow(scene, ends.a, ends.b, s == 1, &mut stats.rays);
             if tr.is_zero() {
                 return None;
             }
-            f *= tr.at(l) as f64;
+            f *= tr.at(lambda) as f64;
         }
         // zero, NaN or infinite p is a lost contribution
         if !(p > 0.0 && p.is_finite()) {
@@ -404,28 +395,63 @@ impl Bdpt {
         }
         let w = if self.only.is_some() { 1.0 } else { w };
         // eqs. 6.18/6.19: w · f / (p_A p_Λ), in XYZ with the CIE weight at λ0 = λ*
-        weighted(xyz_w, l, w * f / p, splat, stats)
+        weighted(xyz_w, lambda, w * f / p, splat, stats)
     }
 }
 
-/// The connection segment x(s−1) → x_s of a strategy with t ≥ 1 and the signed cosines n·w of
-/// its direction at both ends (at the pinhole n is the camera's forward axis), which its pdfs
-/// reuse.
+/// A scattering end of the connection: its lobe, and the unit direction `wo` to its other
+/// neighbour on its own sub-path with the cosine n·wo. Lobes that depend only on the cosines
+/// (the diffuse lobe, `Scattering::eval_cosines`) reuse the connection's; others take the
+/// directions.
 #[derive(Clone, Copy)]
-struct Conn {
-    seg: Seg,
-    cos_a: f32,
-    cos_b: f32,
+struct End {
+    lobe: Scattering,
+    wo: Vec3,
+    cos_o: f32,
 }
 
-/// The measurement f of the connection at λ* = `l` (eq. 6.2): C(s) · [x(s−1), x_s] · L(t),
-/// with the connection's factors first, so that a zero f_dir ends it before the products
+impl End {
+    #[inline(always)]
+    fn new<P>(scene: &Scene, x: &crate::transport::Vertex<P>, wo: Vec3) -> Self {
+        End {
+            lobe: x.scattering(scene),
+            wo,
+            cos_o: x.n.dot(wo),
+        }
+    }
+
+    /// f_dir towards `wi`, whose cosine is `cos_i`.
+    #[inline(always)]
+    fn f(&self, wi: Vec3, cos_i: f32) -> f32 {
+        let cosines = self.lobe.eval_cosines(self.cos_o, cos_i);
+        cosines.unwrap_or_else(|| self.lobe.eval(self.wo, wi))
+    }
+
+    /// The solid-angle pdf of sampling `wi` (cosine `cos_i`).
+    #[inline(always)]
+    fn pdf(&self, wi: Vec3, cos_i: f32) -> f32 {
+        let cosines = self.lobe.pdf_cosines(self.cos_o, cos_i);
+        cosines.unwrap_or_else(|| self.lobe.pdf(self.wo, wi))
+    }
+}
+
+/// A connection of a strategy with t ≥ 1 and its scattering ends (x(s−1) for s ≥ 2, x_s for
+/// t ≥ 2), which its pdfs reuse.
+#[derive(Clone, Copy)]
+struct Conn {
+    c: Connection,
+    a: Option<End>,
+    b: Option<End>,
+}
+
+/// The measurement f of the connection at λ* = `lambda` (eq. 6.2): C(s) · [x(s−1), x_s] ·
+/// L(t), with the connection's factors first, so that a zero f_dir ends it before the products
 /// are looked up. `None` where f is 0; else f and the connection (t ≥ 1).
 #[inline]
 fn measurement(
     scene: &Scene,
     ends: &Ends,
-    l: f32,
+    lambda: f32,
     caches: &mut Caches,
 ) -> Option<(f64, Option<Conn>)> {
     let (s, t) = (ends.s, ends.t);
@@ -438,65 +464,68 @@ fn measurement(
     let (cam, light) = (ends.cam, ends.light);
     if t == 0 {
         let e = ends.a;
-        let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
-        let f = emitted(scene, &mut plain.emit, e, cam[s - 2].p, l) * c;
+        let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, lambda);
+        let f = emitted(scene, &mut plain.emit, e, cam[s - 2].p, lambda) * c;
         return (f > 0.0 || f.is_nan()).then_some((f, None));
     }
     let (a, b) = (ends.a, ends.b);
-    let seg = Seg::new(a, b);
-    // Without media every scattering end is a surface with a diffuse lobe, whose f_dir and pdf
-    // depend only on the cosines of its two directions (`scattering::diffuse_joins`, as
-    // `Scattering::eval` of the full evaluation; tests/bdpt_plain.rs compares the two).
-    debug_assert!(s == 1 || a.scattering(scene) == Scattering::Diffuse { n: a.n });
-    debug_assert!(t == 1 || b.scattering(scene) == Scattering::Diffuse { n: b.n });
-    let (cos_a, cos_b) = (a.n.dot(seg.w), b.n.dot(seg.w));
-    let lobe_a = s >= 2 && {
+    let c = Connection::new(a, b);
+    let w = c.seg.w;
+    // f_dir at the two scattering ends (`Scattering::eval`, from the cosines where it can)
+    let end_a = (s >= 2).then(|| {
         cam_cache.camera(scene, cam);
-        diffuse_joins(a.n.dot(-cam_cache.seg(s - 2).w), cos_a)
-    };
-    let lobe_b = t >= 2 && {
+        End::new(scene, a, -cam_cache.seg(s - 2).w)
+    });
+    let end_b = (t >= 2).then(|| {
         light_cache.light(scene, light);
-        diffuse_joins(b.n.dot(-seg.w), b.n.dot(light_cache.seg(t - 1).w))
-    };
-    if (s >= 2 && !lobe_a) || (t >= 2 && !lobe_b) {
+        End::new(scene, b, light_cache.seg(t - 1).w)
+    });
+    let f_a = end_a.map_or(1.0, |e| e.f(w, c.cos_a));
+    let f_b = end_b.map_or(1.0, |e| e.f(-w, -c.cos_b));
+    if f_a == 0.0 || f_b == 0.0 {
         return None;
     }
     let cam_part = if s == 1 {
-        // x0 → x1: We = 1 / (A cos⁴θ) and the geometry term without the pinhole's cosine
-        let c0 = seg.w.dot(scene.camera.forward) as f64;
-        if c0 <= 0.0 {
+        // x0 → x1: the pinhole importance and the geometry term without the pinhole's cosine
+        let f = camera_term(scene, w, c.seg.d2, b);
+        if f <= 0.0 {
             return None;
         }
-        let g = c0 * b.abs_cos(seg.w) as f64 / seg.d2 as f64;
-        g / (scene.camera.film_area() as f64 * c0 * c0 * c0 * c0)
+        f
     } else {
-        let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, l);
-        c * factor(f_lambda(scene, spectral, a, l), DIFFUSE_F, seg.g)
+        let cp = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, lambda);
+        cp * factor(f_lambda(scene, spectral, a, lambda), f_a, c.seg.g)
     };
     let light_part = if t == 1 {
-        emitted(scene, &mut plain.emit, b, a.p, l)
+        emitted(scene, &mut plain.emit, b, a.p, lambda)
     } else {
         let (products, sp) = (&mut plain.light, (&mut **spectral, &mut plain.emit));
-        let lf = light_suffix(scene, products, light_cache, light, sp, t, l);
-        lf * factor(
-            f_lambda(scene, spectral, b, l),
-            DIFFUSE_F,
-            light_cache.seg(t - 1).g,
-        )
+        let lf = light_suffix(scene, products, light_cache, light, sp, t, lambda);
+        let g = light_cache.seg(t - 1).g;
+        lf * factor(f_lambda(scene, spectral, b, lambda), f_b, g)
     };
     let f = cam_part * light_part;
-    let conn = Conn { seg, cos_a, cos_b };
+    let conn = Conn {
+        c,
+        a: end_a,
+        b: end_b,
+    };
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
 
-/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end the
-/// diffuse lobe's (`scattering::diffuse_pdf_joined`, as `Scattering::pdf`), at the pinhole and
-/// at the emitter their own directional pdfs; each turned into an area pdf at the other end
-/// (the same operations as `Vertex::pdf`, on the connection's own direction and cosines).
+/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end its
+/// lobe's, at the pinhole and at the emitter their own directional pdfs; each turned into an
+/// area pdf at the other end (the same operations as `Vertex::pdf`, on the connection's own
+/// direction and cosines).
 #[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
-    let (s, t) = (ends.s, ends.t);
-    let Some(c) = conn else {
+    let s = ends.s;
+    let Some(Conn {
+        c,
+        a: end_a,
+        b: end_b,
+    }) = conn
+    else {
         // t = 0: the light point and emission pdfs at the emitter x(s−1)
         let e = ends.a;
         let rev = [
@@ -507,20 +536,18 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     };
     let (a, b) = (ends.a, ends.b);
     let (w, d2) = (c.seg.w, c.seg.d2);
-    // |cos| at x_s and at x(s−1) of the connection (1 at the pinhole, as `abs_cos`)
-    let (abs_b, abs_a) = (c.cos_b.abs(), if s == 1 { 1.0 } else { c.cos_a.abs() });
-    // a scattering end's lobe joins its two directions, else `measurement` returned `None`
-    let fwd = if s >= 2 {
-        diffuse_pdf_joined(c.cos_a) * abs_b / d2
-    } else {
-        let pdf = scene.camera.pdf_dir_towards(a.n, w);
-        pdf.map_or(0.0, |p| p * abs_b / d2)
+    let (abs_a, abs_b) = (c.abs_a, c.abs_b);
+    let fwd = match end_a {
+        Some(e) => e.pdf(w, c.cos_a) * abs_b / d2,
+        None => {
+            let pdf = scene.camera.pdf_dir_towards(a.n, w);
+            pdf.map_or(0.0, |p| p * abs_b / d2)
+        }
     };
-    let rev_dir = if t >= 2 {
+    let rev_dir = match end_b {
         // wi = −w, whose cosine is −(n·w) exactly
-        diffuse_pdf_joined(-c.cos_b)
-    } else {
-        scene.lights.pdf_le_direction(b.light as usize, b.n, -w)
+        Some(e) => e.pdf(-w, -c.cos_b),
+        None => scene.lights.pdf_le_direction(b.light as usize, b.n, -w),
     };
     Changed {
         fwd_s: fwd as f64,
@@ -530,8 +557,9 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
 
 /// One connection evaluated both ways by [`plain_for_test`]: the contribution, the statistics
 /// it added, and the next random number after it (both must draw the same numbers).
+#[cfg(test)]
 #[derive(Clone, Debug)]
-pub struct PlainTrial {
+pub(crate) struct PlainTrial {
     pub contribution: Option<Contribution>,
     pub stats: Stats,
     pub next_random: f32,
@@ -539,7 +567,8 @@ pub struct PlainTrial {
 
 /// Connect strategy (s, t) of the sub-paths in `scratch` as a plain path and on the full path,
 /// each from a copy of `sampler` (test hook); `None` when the path is not plain.
-pub fn plain_for_test(
+#[cfg(test)]
+pub(crate) fn plain_for_test(
     b: &Bdpt,
     scene: &Scene,
     scratch: &mut Scratch,

@@ -15,19 +15,19 @@ use crate::transport::spectral::with_spectrum;
 
 /// P_c or P_l of a vertex that can shift (the reset draws a number for it), `None` otherwise.
 #[inline(always)]
-fn fluorescence(m: &impl Bbrrdf, l: f32, side: PathSide) -> Option<f32> {
+fn fluorescence(m: &impl Bbrrdf, lambda: f32, side: PathSide) -> Option<f32> {
     m.is_fluorescent()
-        .then(|| m.fluorescence_probability(l, side))
+        .then(|| m.fluorescence_probability(lambda, side))
 }
 
 /// [`fluorescence`] of interior vertex `v` of a path; the sub-path walk flagged the vertices
 /// that can shift, so the others need no material lookup.
 #[inline(always)]
-fn vertex_fluorescence(scene: &Scene, v: &Vertex, l: f32, side: PathSide) -> Option<f32> {
+fn vertex_fluorescence(scene: &Scene, v: &Vertex, lambda: f32, side: PathSide) -> Option<f32> {
     if !v.fluorescent {
         return None;
     }
-    with_spectrum!(scene, v, m => fluorescence(m, l, side), else None)
+    with_spectrum!(scene, v, m => fluorescence(m, lambda, side), else None)
 }
 
 /// Wavelengths of the camera vertices x0 … x(s−1) as sampled (λ0 … λ(s−1)).

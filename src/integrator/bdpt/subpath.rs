@@ -4,7 +4,8 @@
 //! (`lambda_out`); whether the vertex shifted the wavelength is the core vertex's `shift`.
 
 use super::cache::SpectralCache;
-use super::geometric::{self, SegmentLog, Step, Walker};
+use super::geometric::{self, SegmentLog, Start, Step, Trace, Walker};
+use super::wavelength::light_wavelength;
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Sampler, Stats};
@@ -24,31 +25,39 @@ pub struct Lambdas {
     pub lambda_out: f32,
 }
 
+impl Lambdas {
+    /// The same wavelength on both sides (a vertex that does not shift, or an end).
+    #[inline(always)]
+    pub fn both(lambda: f32) -> Self {
+        Lambdas {
+            lambda_in: lambda,
+            lambda_out: lambda,
+        }
+    }
+}
+
 /// A sub-path vertex: geometry and area pdfs (transport layer) plus wavelengths.
 pub type Vertex = transport::Vertex<Lambdas>;
 
 /// Sample the wavelength on the far side of a scattering vertex `v` with spectral part `m`
-/// (a material, or a medium per unit density) whose near side carries `l` (eq. 6.6 on camera
+/// (a material, or a medium per unit density) whose near side carries `lambda` (eq. 6.6 on camera
 /// paths, 6.7 on light paths); returns the weight f/p.
 #[inline]
 fn scatter(
     v: &mut Vertex,
     m: &impl Bbrrdf,
-    l: f32,
+    lambda: f32,
     (side, shift): (PathSide, ShiftSampling),
     sampler: &mut Sampler,
     spectral: &mut SpectralCache,
 ) -> f32 {
-    v.data = Lambdas {
-        lambda_in: l,
-        lambda_out: l,
-    };
+    v.data = Lambdas::both(lambda);
     if !m.is_fluorescent() {
-        return spectral.diagonal(v, m, l);
+        return spectral.diagonal(v, m, lambda);
     }
     v.fluorescent = true;
     // decide with P, then sample the absorption (camera) or emission (light) side
-    let s = m.sample(l, sampler.next2(), side, shift);
+    let s = m.sample(lambda, sampler.next2(), side, shift);
     match side {
         PathSide::Camera => v.data.lambda_in = s.lambda,
         PathSide::Light => v.data.lambda_out = s.lambda,
@@ -100,9 +109,9 @@ impl<const LIGHT: bool> Walker<Lambdas> for SpectralWalker<'_, LIGHT> {
         verts: &[Vertex],
         sampler: &mut Sampler,
     ) -> Option<f32> {
-        let l = self.segment_lambda(&verts[verts.len() - 1]);
+        let lambda = self.segment_lambda(&verts[verts.len() - 1]);
         let mut u = || sampler.next();
-        match travel::<f32>(medium, ray, t_max, l, 1, self.tracking, LIGHT, &mut u) {
+        match travel::<f32>(medium, ray, t_max, lambda, 1, self.tracking, LIGHT, &mut u) {
             Travel::Collision { t, factor, .. } => {
                 self.w *= factor;
                 Some(t)
@@ -122,23 +131,20 @@ impl<const LIGHT: bool> Walker<Lambdas> for SpectralWalker<'_, LIGHT> {
         sampler: &mut Sampler,
     ) -> Step {
         let [.., prev, v] = verts else { unreachable!() };
-        let l = self.segment_lambda(prev);
+        let lambda = self.segment_lambda(prev);
         if let Some(seg) = seg {
             seg.w = self.w;
-            seg.lambda = l;
+            seg.lambda = lambda;
             self.beta *= self.w;
             self.w = 1.0;
         }
         if !v.scatters() {
-            v.data = Lambdas {
-                lambda_in: l,
-                lambda_out: l,
-            };
+            v.data = Lambdas::both(lambda);
             // Camera paths keep an emitter they hit (t = 0); light paths cannot use it.
             return if LIGHT { Step::Discard } else { Step::Stop };
         }
         let (how, spectral) = ((Self::SIDE, self.shift), &mut *self.spectral);
-        let w = with_spectrum!(self.scene, v, m => scatter(v, m, l, how, sampler, spectral),
+        let w = with_spectrum!(self.scene, v, m => scatter(v, m, lambda, how, sampler, spectral),
             else return Step::Discard);
         self.beta *= w;
         if self.stop_on_zero && !(self.beta > 0.0) {
@@ -154,125 +160,122 @@ impl<const LIGHT: bool> Walker<Lambdas> for SpectralWalker<'_, LIGHT> {
     }
 }
 
-/// Trace a camera sub-path with at most `max_vertices` vertices (x0 included), Jung Alg. 1.
-/// At each scattering vertex (surface or medium) the incident wavelength is sampled as a camera
-/// path does (eq. 6.6), the last vertex included. With `stop_on_zero` (forward reset: camera
-/// wavelengths are final) the path ends when its spectral throughput is zero; otherwise only by
-/// depth or escape. `log` (media scenes) receives the segments.
-#[allow(clippy::too_many_arguments)]
+/// How a bdpt-forward/backward sub-path samples: new wavelengths at fluorescent vertices, free
+/// flights, and whether it ends at zero spectral throughput (its wavelengths are final).
+#[derive(Clone, Copy, Debug)]
+pub struct Sampling {
+    pub shift: ShiftSampling,
+    pub tracking: Tracking,
+    pub stop_on_zero: bool,
+}
+
+/// The buffers one sub-path fills: its vertices, its segments (media scenes) and the spectral
+/// cache of the sample.
+pub struct Buffers<'a> {
+    pub out: &'a mut Vec<Vertex>,
+    pub log: Option<&'a mut SegmentLog>,
+    pub spectral: &'a mut SpectralCache,
+}
+
+impl<'a> Buffers<'a> {
+    /// Empty the vertices and the segment log.
+    fn clear(&mut self) {
+        self.out.clear();
+        if let Some(log) = self.log.as_deref_mut() {
+            log.clear();
+        }
+    }
+
+    /// Walk on from `start` (`geometric::random_walk`) with `walker`, counting the rays.
+    #[inline]
+    fn walk<const LIGHT: bool>(
+        self,
+        scene: &Scene,
+        start: Start,
+        max_vertices: usize,
+        (sampler, stats): (&mut Sampler, &mut Stats),
+        how: Sampling,
+        beta: f32,
+    ) {
+        let mut walker = SpectralWalker::<LIGHT> {
+            scene,
+            shift: how.shift,
+            tracking: how.tracking,
+            stop_on_zero: how.stop_on_zero,
+            beta,
+            w: 1.0,
+            spectral: self.spectral,
+        };
+        let trace = Trace {
+            verts: self.out,
+            max_vertices,
+            log: self.log,
+        };
+        stats.rays += geometric::random_walk(scene, start, trace, sampler, &mut walker);
+    }
+}
+
+/// Trace a camera sub-path through film position `(x, y)` with at most `max_vertices` vertices
+/// (x0 included), Jung Alg. 1. At each scattering vertex (surface or medium) the incident
+/// wavelength is sampled as a camera path does (eq. 6.6), the last vertex included. With
+/// `stop_on_zero` (forward reset: camera wavelengths are final) the path ends when its spectral
+/// throughput is zero; otherwise only by depth or escape.
 pub fn camera_subpath(
     scene: &Scene,
-    x: f32,
-    y: f32,
+    (x, y): (f32, f32),
     lambda0: f32,
     max_vertices: usize,
-    shift: ShiftSampling,
-    tracking: Tracking,
-    stop_on_zero: bool,
-    sampler: &mut Sampler,
-    stats: &mut Stats,
-    out: &mut Vec<Vertex>,
-    log: Option<&mut SegmentLog>,
-    spectral: &mut SpectralCache,
+    how: Sampling,
+    (sampler, stats): (&mut Sampler, &mut Stats),
+    mut bufs: Buffers,
 ) {
-    out.clear();
+    bufs.clear();
     let (mut x0, ray, pdf_dir) = Vertex::camera(scene, x, y);
-    x0.data.lambda_in = lambda0;
-    x0.data.lambda_out = lambda0;
-    out.push(x0);
-    let mut walker = SpectralWalker::<false> {
-        scene,
-        shift,
-        tracking,
-        stop_on_zero,
-        beta: 1.0,
-        w: 1.0,
-        spectral,
-    };
-    let mut rays = 0u64;
-    let mut log = log;
-    if let Some(l) = log.as_deref_mut() {
-        l.clear();
-    }
-    geometric::random_walk(
-        scene,
+    x0.data = Lambdas::both(lambda0);
+    bufs.out.push(x0);
+    let medium = scene.camera_medium;
+    let start = Start {
         ray,
         pdf_dir,
-        scene.camera_medium,
-        out,
-        max_vertices,
-        sampler,
-        &mut rays,
-        log,
-        &mut walker,
-    );
-    stats.rays += rays;
+        medium,
+    };
+    bufs.walk::<false>(scene, start, max_vertices, (sampler, stats), how, 1.0);
 }
 
 /// Trace a light sub-path with at most `max_vertices` vertices, Jung Alg. 3: light ∝ power,
 /// λ from its emission spectrum (or uniform), cosine emission, and at each scattering vertex the
 /// exitant wavelength sampled as a light path does (eq. 6.7). With `stop_on_zero` (backward
 /// reset: light wavelengths are final) it ends at zero spectral throughput.
-#[allow(clippy::too_many_arguments)]
 pub fn light_subpath(
     scene: &Scene,
     max_vertices: usize,
     light_mode: LightWavelengths,
-    shift: ShiftSampling,
-    tracking: Tracking,
-    stop_on_zero: bool,
-    sampler: &mut Sampler,
-    stats: &mut Stats,
-    out: &mut Vec<Vertex>,
-    log: Option<&mut SegmentLog>,
-    spectral: &mut SpectralCache,
+    how: Sampling,
+    (sampler, stats): (&mut Sampler, &mut Stats),
+    mut bufs: Buffers,
 ) {
-    out.clear();
-    let mut log = log;
-    if let Some(l) = log.as_deref_mut() {
-        l.clear();
-    }
+    bufs.clear();
     if max_vertices == 0 || scene.lights.is_empty() {
         return;
     }
     let mut v0 = sample_light_vertex(scene, sampler);
-    let li = v0.light as usize;
-    let (l, _) = scene
-        .lights
-        .sample_wavelength(li, sampler.next(), light_mode);
-    v0.data.lambda_in = l;
-    v0.data.lambda_out = l;
-    let beta = scene.lights[li].spectrum.eval(l);
-    out.push(v0);
-    if max_vertices == 1 || (stop_on_zero && beta <= 0.0) {
+    let light = v0.light as usize;
+    let lambda = light_wavelength(scene, v0.light, light_mode, sampler).lambda;
+    v0.data = Lambdas::both(lambda);
+    let beta = scene.lights[light].spectrum.eval(lambda);
+    bufs.out.push(v0);
+    if max_vertices == 1 || (how.stop_on_zero && beta <= 0.0) {
         return;
     }
-    let e = scene.lights.sample_le_direction(li, v0.n, sampler.next2());
-    let ray = spawn_ray(v0.p, v0.n, e.w);
-    let medium = towards(scene.light_media(li), v0.n, e.w);
-    let mut walker = SpectralWalker::<true> {
-        scene,
-        shift,
-        tracking,
-        stop_on_zero,
-        beta,
-        w: 1.0,
-        spectral,
+    let e = scene
+        .lights
+        .sample_le_direction(light, v0.n, sampler.next2());
+    let start = Start {
+        ray: spawn_ray(v0.p, v0.n, e.w),
+        pdf_dir: e.pdf_dir,
+        medium: towards(scene.light_media(light), v0.n, e.w),
     };
-    let mut rays = 0u64;
-    geometric::random_walk(
-        scene,
-        ray,
-        e.pdf_dir,
-        medium,
-        out,
-        max_vertices,
-        sampler,
-        &mut rays,
-        log,
-        &mut walker,
-    );
-    stats.rays += rays;
+    bufs.walk::<true>(scene, start, max_vertices, (sampler, stats), how, beta);
 }
 
 /// A light vertex: a light chosen by power and a point by area, with `pdf_fwd` their product

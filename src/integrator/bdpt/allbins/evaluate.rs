@@ -126,12 +126,3 @@ pub fn f_dir(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, wi: Vec3) -> f32 
         VertexKind::Camera => 0.0,
     }
 }
-
-/// Pinhole importance for a light-tracing splat: the pixel's W_e = N_pixels / (A_film · cos⁴θ)
-/// (pbrt-v3 `PerspectiveCamera::We` with a box pixel filter), divided by the N_pixels light
-/// sub-paths traced per pass, since film = (Σ samples + Σ splats) / spp: 1 / (A_film · cos⁴θ).
-#[inline]
-pub fn pinhole_we(scene: &Scene, cos: f32) -> f32 {
-    let c2 = cos * cos;
-    1.0 / (scene.camera.film_area() * c2 * c2)
-}

@@ -1,8 +1,10 @@
 //! Directional-only MIS for the all-bins BDPT (Jung 6.4.2): the wavelength pdfs drop out because
-//! no strategy samples wavelengths, so the weights are pbrt-v4's `MISWeight` on area pdfs.
+//! no strategy samples wavelengths, so the weight is the ratio walk of every BDPT
+//! (`bdpt::weight`) on area pdfs, with the pdfs across the connection replaced.
 
 use super::Vertex;
 use crate::integrator::MisHeuristic;
+use crate::integrator::bdpt::weight::mis_walk;
 use crate::scene::Scene;
 
 /// Media: the free-flight pdfs next to the connection that the sub-paths' stored pdfs lack (1
@@ -35,7 +37,8 @@ struct Overrides {
     qs_minus: f32,
 }
 
-/// MIS weight of strategy (s, t): w = 1 / Σ_i (p_i / p_s)^β (Veach eq. 10.9 via pbrt ratios).
+/// MIS weight of strategy (s, t) (s light vertices, t camera vertices): w = 1 / Σ_i (p_i / p_s)^β
+/// (Veach eq. 10.9).
 /// `sampled` replaces the light vertex when s = 1 or the camera vertex when t = 1; `media`
 /// holds the free-flight pdfs of the connection and of the segments next to it.
 #[allow(clippy::too_many_arguments)]
@@ -88,37 +91,30 @@ pub fn weight(
             _ => 0.0,
         },
     };
-    let e = heuristic.exponent();
-    let powr = |r: f64| if e == 1.0 { r } else { r * r };
-    // f64: the ratios of pdfs through media (1/d² of close collisions) can exceed f32's range.
-    let remap = |f: f32| if f != 0.0 { f as f64 } else { 1.0 };
-    let mut sum = 0.0f64;
-    // Camera side: vertices t−1 … 1 (the pinhole is never hit).
-    let mut ri = 1.0f64;
-    for i in (1..t).rev() {
-        let rev = if i == t - 1 {
+    // The path in path order x0 … x(k−1) has the t camera vertices first, then the s light
+    // vertices turned around; the walk of every BDPT (`super::super::weight`) with the pdfs
+    // across the connection replaced and the wavelength pdfs left out (Jung 6.4.2).
+    let cam_rev = |i: usize| {
+        if i == t - 1 {
             o.pt
         } else if i + 2 == t {
             o.pt_minus
         } else {
             camera[i].pdf_rev
-        };
-        ri *= remap(rev) / remap(camera[i].pdf_fwd);
-        sum += powr(ri);
-    }
-    // Light side: vertices s−1 … 0 (area lights only, no δ vertices).
-    let mut ri = 1.0f64;
-    for i in (0..s).rev() {
-        let (rev, fwd) = if i == s - 1 {
+        }
+    };
+    let lower = (1..t).map(|i| (camera[i].pdf_fwd as f64, cam_rev(i) as f64));
+    let upper = (0..s).rev().map(|i| {
+        let (fwd, rev) = if i == s - 1 {
             (o.qs, qs.map_or(1.0, |v| v.pdf_fwd))
         } else if i + 2 == s {
             (o.qs_minus, light[i].pdf_fwd)
         } else {
             (light[i].pdf_rev, light[i].pdf_fwd)
         };
-        ri *= remap(rev) / remap(fwd);
-        sum += powr(ri);
-    }
-    let w = 1.0 / (1.0 + sum);
+        (fwd as f64, rev as f64)
+    });
+    // f64: the ratios of pdfs through media (1/d² of close collisions) can exceed f32's range.
+    let (_, w) = mis_walk(lower, upper, t, |_| 1.0, heuristic);
     if w.is_nan() { 0.0 } else { w as f32 }
 }

@@ -13,8 +13,9 @@ pub mod grid;
 pub mod media;
 pub mod mis;
 
-use super::geometric::{SegmentLog, Step, Walker, random_walk};
-use super::{strategy_layer, strategy_layer_names};
+use super::connection::{Connection, camera_term, splat};
+use super::geometric::{SegmentLog, Start, Step, Trace, Walker, random_walk};
+use super::{Depth, strategy_images, strategy_layer};
 use crate::geometry::Ray;
 use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
@@ -23,9 +24,9 @@ use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::transport::segment::{self, grey_distance_pdf};
-use crate::transport::{self, Segment, Stretch, VertexKind, transmittance};
+use crate::transport::{self, Segment, Stretch, VertexKind};
 use binops::SupportedOp;
-use evaluate::{Support, dot3_on, f_dir, pinhole_we};
+use evaluate::{Support, dot3_on, f_dir};
 use glam::Vec3;
 use media::BinMedia;
 
@@ -69,7 +70,7 @@ fn sample_light_vertex(scene: &Scene, sampler: &mut Sampler) -> Vertex {
 /// The integrator with its per-scene precomputation.
 pub struct BdptAllbins {
     pub grid: BinGrid,
-    max_depth: usize,
+    depth: Depth,
     mis: MisHeuristic,
     /// One bin operator per material (light direction).
     ops: Vec<SupportedOp>,
@@ -185,7 +186,7 @@ impl BdptAllbins {
         let w_support = Support::of_rows(&w, grid.len());
         Ok(BdptAllbins {
             grid,
-            max_depth: o.max_depth as usize,
+            depth: Depth::new(o),
             mis: o.mis,
             ops,
             le,
@@ -243,30 +244,44 @@ impl BdptAllbins {
         camera.push(z0);
         cam.buf[..3 * n].copy_from_slice(&self.w);
         cam.support[0] = self.w_support;
-        let media = scene.has_media;
         cam.cur_w.fill(1.0);
         cam_log.clear();
-        let mut walker = BinWalker::<true> {
-            ev: self,
-            n,
-            beta: 1.0,
-            bufs: cam,
-        };
-        let mut rays = 0u64;
-        random_walk(
-            scene,
+        let start = Start {
             ray,
-            pdf_cam,
-            scene.camera_medium,
-            camera,
-            self.max_depth + 1,
-            sampler,
-            &mut rays,
-            media.then_some(&mut *cam_log),
-            &mut walker,
-        );
+            pdf_dir: pdf_cam,
+            medium: scene.camera_medium,
+        };
+        let n = self.depth.camera_vertices();
+        self.walk::<true>(scene, start, (camera, n, cam_log), cam, 1.0, sampler)
+    }
+
+    /// Walk a sub-path on from `start` (`geometric::random_walk`) with its bin buffers `bufs`,
+    /// its first vertex's throughput `beta` and at most `max` vertices, then fold its free-flight
+    /// pdfs into its vertices (media); returns the rays cast.
+    fn walk<const CAMERA: bool>(
+        &self,
+        scene: &Scene,
+        start: Start,
+        (verts, max, log): (&mut Vec<Vertex>, usize, &mut SegmentLog),
+        bufs: &mut SideBufs,
+        beta: f32,
+        sampler: &mut Sampler,
+    ) -> u64 {
+        let media = scene.has_media;
+        let mut walker = BinWalker::<CAMERA> {
+            ev: self,
+            n: self.grid.len(),
+            beta,
+            bufs,
+        };
+        let trace = Trace {
+            verts: &mut *verts,
+            max_vertices: max,
+            log: media.then_some(&mut *log),
+        };
+        let rays = random_walk(scene, start, trace, sampler, &mut walker);
         if media {
-            fold_distances(scene, &self.media, camera, cam_log, &mut cam.drev);
+            fold_distances(scene, &self.media, verts, log, &mut bufs.drev);
         }
         rays
     }
@@ -282,44 +297,34 @@ impl BdptAllbins {
         } = sc;
         light.clear();
         light_log.clear();
-        if self.max_depth < 2 {
+        if self.depth.light_vertices() < 2 {
             return 0;
         }
         let y0 = sample_light_vertex(scene, sampler);
-        let l = y0.light as usize;
-        let e = scene.lights.sample_le_direction(l, y0.n, sampler.next2());
-        let (lray, pdf_dir) = (spawn_ray(y0.p, y0.n, e.w), e.pdf_dir);
+        let emitter = y0.light as usize;
+        let e = scene
+            .lights
+            .sample_le_direction(emitter, y0.n, sampler.next2());
+        let start = Start {
+            ray: spawn_ray(y0.p, y0.n, e.w),
+            pdf_dir: e.pdf_dir,
+            medium: segment::towards(scene.light_media(emitter), y0.n, e.w),
+        };
         // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
         let beta_out = e.weight / y0.pdf_fwd;
-        lig.buf[..n].copy_from_slice(&self.le[l]);
-        lig.support[0] = self.le_support[l];
+        lig.buf[..n].copy_from_slice(&self.le[emitter]);
+        lig.support[0] = self.le_support[emitter];
         light.push(y0);
-        let media = scene.has_media;
-        let medium = segment::towards(scene.light_media(l), y0.n, e.w);
         lig.cur_w.fill(1.0);
-        let mut walker = BinWalker::<false> {
-            ev: self,
-            n,
-            beta: beta_out,
-            bufs: lig,
-        };
-        let mut rays = 0u64;
-        random_walk(
+        let max = self.depth.light_vertices();
+        self.walk::<false>(
             scene,
-            lray,
-            pdf_dir,
-            medium,
-            light,
-            self.max_depth,
+            start,
+            (light, max, light_log),
+            lig,
+            beta_out,
             sampler,
-            &mut rays,
-            media.then_some(&mut *light_log),
-            &mut walker,
-        );
-        if media {
-            fold_distances(scene, &self.media, light, light_log, &mut lig.drev);
-        }
-        rays
+        )
     }
 
     /// s = 0: the camera sub-path's vertex z(t−1) is an emitter; the weighted contribution.
@@ -329,10 +334,10 @@ impl BdptAllbins {
         if !z.is_emitter() {
             return None;
         }
-        let li = z.light as usize;
-        let on = sc.cam.support[t - 2].intersect(self.le_support[li]);
+        let light = z.light as usize;
+        let on = sc.cam.support[t - 2].intersect(self.le_support[light]);
         let zp = &sc.camera[t - 2];
-        if on.is_empty() || !scene.lights[li].emits_towards(z.n, zp.p - z.p) {
+        if on.is_empty() || !scene.lights[light].emits_towards(z.n, zp.p - z.p) {
             return None;
         }
         let q = &sc.cam.buf[(t - 2) * 3 * n..(t - 1) * 3 * n];
@@ -340,7 +345,7 @@ impl BdptAllbins {
         let le: &[f32] = if scene.has_media {
             // the free-flight weights of the last segment
             let w = &sc.cam.seg_w[(t - 1) * n..t * n];
-            for ((o, a), b) in sc.conn_t.iter_mut().zip(&self.le[li]).zip(w) {
+            for ((o, a), b) in sc.conn_t.iter_mut().zip(&self.le[light]).zip(w) {
                 *o = a * b;
             }
             media = Some(mis::MediaPdfs {
@@ -349,7 +354,7 @@ impl BdptAllbins {
             });
             &sc.conn_t
         } else {
-            &self.le[li]
+            &self.le[light]
         };
         let c = dot3_on(q, le, on) * z.data.beta;
         (c != Vec3::ZERO).then(|| c * self.weight(scene, sc, 0, t, None, media))
@@ -413,17 +418,16 @@ impl BdptAllbins {
         }
         let zc = camera_vertex(scene);
         let (wdir, dist2) = zc.towards(&yv);
-        let (px, py, cos) = cam.project(wdir)?;
+        let (px, py, _) = cam.project(wdir)?;
         let fy = f_dir(scene, &yv, sc.light.get(s.wrapping_sub(2)), -wdir);
         if fy == 0.0 {
             return None;
         }
-        let g = cos * yv.abs_cos(wdir) / dist2;
-        let scal = yv.data.beta * fy * g * pinhole_we(scene, cos);
+        // W_e and the geometry term without the pinhole's cosine (eq. 6.2)
+        let scal = yv.data.beta * fy * camera_term(scene, wdir, dist2, &yv) as f32;
         if !scene.has_media {
             let c = dot3_on(&self.w, &sc.lig.buf[(s - 1) * n..s * n], on) * scal;
-            if c == Vec3::ZERO || transmittance(scene, yv.endpoint(), zc.endpoint(), rays).is_zero()
-            {
+            if c == Vec3::ZERO || Connection::shadow(scene, &zc, &yv, true, rays).is_zero() {
                 return None;
             }
             return Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc), None)));
@@ -485,11 +489,11 @@ impl BdptAllbins {
             return None;
         }
         // The connection z → y: lobes at both ends and the geometry term (Veach eq. 8.3).
-        let (w, d2) = z.towards(&yv);
+        let conn = Connection::new(&z, &yv);
+        let w = conn.seg.w;
         let fz = f_dir(scene, &z, Some(&zp), w);
         let fy = f_dir(scene, &yv, yprev.as_ref(), -w);
-        let g = z.abs_cos(w) * yv.abs_cos(w) / d2;
-        let scal = fz * fy * g * z.data.beta * yv.data.beta;
+        let scal = fz * fy * conn.g32() * z.data.beta * yv.data.beta;
         if scal == 0.0 {
             return None;
         }
@@ -502,8 +506,7 @@ impl BdptAllbins {
         };
         if !scene.has_media {
             let c = dot3_on(q, ys, on) * scal;
-            if c == Vec3::ZERO || transmittance(scene, z.endpoint(), yv.endpoint(), rays).is_zero()
-            {
+            if c == Vec3::ZERO || Connection::shadow(scene, &z, &yv, false, rays).is_zero() {
                 return None;
             }
             return Some(c * self.weight(scene, sc, s, t, sampled, None));
@@ -578,7 +581,7 @@ impl<const CAMERA: bool> Walker<Throughput> for BinWalker<'_, CAMERA> {
             return if CAMERA { Step::Stop } else { Step::Discard };
         }
         // The last camera vertex (j = max_depth) is only used by s = 0.
-        if CAMERA && j >= self.ev.max_depth {
+        if CAMERA && j + 1 >= self.ev.depth.camera_vertices() {
             return Step::Stop;
         }
         let op = if v.kind == VertexKind::Medium {
@@ -652,7 +655,7 @@ impl Integrator for BdptAllbins {
 
     fn scratch(&self, _: &Scene) -> Scratch {
         let n = self.grid.len();
-        let v = self.max_depth + 2;
+        let v = self.depth.capacity();
         let side = |stride: usize| SideBufs {
             buf: vec![0.0; v * stride],
             support: vec![Support::EMPTY; v],
@@ -674,10 +677,7 @@ impl Integrator for BdptAllbins {
     }
 
     fn aux_layers(&self) -> Vec<String> {
-        if !self.strategy_images {
-            return Vec::new();
-        }
-        strategy_layer_names(self.max_depth)
+        strategy_images(self.strategy_images, self.depth)
     }
 
     fn sample(
@@ -695,7 +695,7 @@ impl Integrator for BdptAllbins {
         for t in 1..=sc.camera.len() {
             for s in 0..=sc.light.len() {
                 let segments = s + t - 1;
-                if segments == 0 || segments > self.max_depth || (s == 1 && t == 1) {
+                if segments == 0 || !self.depth.allows(s, t) || (s == 1 && t == 1) {
                     continue;
                 }
                 if self.only.is_some_and(|o| o != (s, t)) {
@@ -708,12 +708,8 @@ impl Integrator for BdptAllbins {
                     else {
                         continue;
                     };
-                    if sink.splat(px, py, c) {
-                        if self.strategy_images {
-                            let pix = (py as u32).min(sink.height - 1) * sink.width
-                                + (px as u32).min(sink.width - 1);
-                            sink.aux(layer, pix, c);
-                        }
+                    // bdpt's strategy-image order: (camera vertices, light vertices)
+                    if splat(sink, (t, s), (px, py), c, self.strategy_images) {
                         sink.stats.contribution(segments);
                     }
                     continue;

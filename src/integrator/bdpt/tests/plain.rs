@@ -3,10 +3,11 @@
 //! the same XYZ up to rounding (the products are taken in another order), the same splat
 //! position, the same statistics and the same random numbers drawn.
 
+use crate::integrator::bdpt::plain::{PlainTrial, plain_for_test};
+use crate::integrator::bdpt::{Bdpt, ResetMode};
+use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
+use crate::scene::{NONE, Scene};
 use std::path::Path;
-use stokes::integrator::bdpt::{Bdpt, PlainTrial, ResetMode, plain_for_test};
-use stokes::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
-use stokes::scene::{NONE, Scene};
 
 fn load(name: &str) -> Scene {
     Scene::load(Path::new(&format!("scenes/{name}.json"))).unwrap()

@@ -9,13 +9,12 @@
 //! (2k + 4)·2⁻⁵³ ≈ 3·10⁻¹⁴ at k = 130, and a weight 1 / Σ r to twice that; zeros must agree
 //! exactly.
 
-mod common;
-
-use common::{dye_box, load};
-use stokes::integrator::bdpt::{Bdpt, FullPath, ResetMode, connect_for_test};
-use stokes::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
-use stokes::scene::Scene;
-use stokes::transport::VertexKind;
+use super::{dye_box, load};
+use crate::integrator::bdpt::evaluate::connect_for_test;
+use crate::integrator::bdpt::{Bdpt, FullPath, ResetMode};
+use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
+use crate::scene::Scene;
+use crate::transport::VertexKind;
 
 const TOL: f64 = 1e-12;
 const MODES: [ResetMode; 2] = [ResetMode::Forward, ResetMode::Backward];
@@ -104,7 +103,7 @@ fn compare(p: &FullPath, own: Option<&[usize]>, what: &str) -> (usize, f64) {
                     continue;
                 }
                 let (x, y) = (
-                    p.mis_weight(s, ps, mode, h),
+                    p.mis_weight(s, mode, h),
                     quadratic_mis_weight(p, s, ps, mode, h),
                 );
                 worst = worst.max(rel(x, y));

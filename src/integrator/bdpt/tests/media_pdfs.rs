@@ -9,12 +9,13 @@
 //! analytic transmittance T(λ) = exp(−Σ σ̂t(λ)·len) of its stretches, for every tracking mode
 //! (the aware density needs the distance past medium vertices, which this checks too).
 
+use crate::geometry::Ray;
+use crate::integrator::bdpt::evaluate::connect_for_test;
+use crate::integrator::bdpt::{Bdpt, ResetMode, VertexKind};
+use crate::integrator::{Integrator, IntegratorOptions, Sampler, Stats};
+use crate::medium::Tracking;
+use crate::scene::Scene;
 use std::path::Path;
-use stokes::geometry::Ray;
-use stokes::integrator::bdpt::{Bdpt, ResetMode, VertexKind, connect_for_test};
-use stokes::integrator::{Integrator, IntegratorOptions, Sampler, Stats};
-use stokes::medium::Tracking;
-use stokes::scene::Scene;
 
 #[test]
 fn segment_pdfs_match_the_sampling() {
@@ -114,7 +115,7 @@ fn segment_pdfs_match_the_sampling() {
 /// depend on the connection's other end.
 fn pdfs_are_functions_of_the_path(
     scene: &Scene,
-    p: &stokes::integrator::bdpt::FullPath,
+    p: &crate::integrator::bdpt::FullPath,
     s: usize,
     t: usize,
 ) {
@@ -129,7 +130,7 @@ fn pdfs_are_functions_of_the_path(
     let long = |a: usize, b: usize| {
         let d = v[b].p - v[a].p;
         let w = d.normalize();
-        let steep = |x: &stokes::integrator::bdpt::Vertex| {
+        let steep = |x: &crate::integrator::bdpt::Vertex| {
             x.kind != VertexKind::Surface || x.n.dot(w).abs() > 0.2
         };
         d.length() > 0.2 && steep(&v[a]) && steep(&v[b])
@@ -167,7 +168,7 @@ fn pdfs_are_functions_of_the_path(
 /// The aware density's distances past medium vertices (stored by the sub-paths, or cast at the
 /// connection) equal a direct ray cast past each medium end of each segment, along the
 /// segment's stretch that holds the vertex.
-fn far_distances_are_right(scene: &Scene, p: &stokes::integrator::bdpt::FullPath) {
+fn far_distances_are_right(scene: &Scene, p: &crate::integrator::bdpt::FullPath) {
     let dist = |o: glam::Vec3, d: glam::Vec3| {
         let ray = Ray::new(o, d);
         scene
