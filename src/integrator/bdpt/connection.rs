@@ -7,7 +7,7 @@
 use super::strategy_layer;
 use crate::integrator::{SampleSink, Stats};
 use crate::scene::Scene;
-use crate::transport::{Transmittance, Vertex, transmittance};
+use crate::transport::{Scattering, Transmittance, Vertex, VertexKind, transmittance};
 use glam::Vec3;
 
 /// A segment x_a → x_b in path order (camera towards light).
@@ -93,6 +93,98 @@ impl Connection {
         } else {
             transmittance(scene, a, b, rays)
         }
+    }
+}
+
+/// One end of a connection as its lobe and pdfs see it.
+#[derive(Clone, Copy, Debug)]
+pub enum End {
+    /// The pinhole x0 (light tracing).
+    Camera,
+    /// A point on emitter `light` with normal `n`: a light sub-path's origin or a fresh light
+    /// point of next-event estimation.
+    Emitter { light: u32, n: Vec3 },
+    /// A scattering vertex: its lobe, the unit direction `wo` to its other neighbour on its own
+    /// sub-path and the cosine n·wo. Lobes that depend only on the cosines (the diffuse lobe,
+    /// `Scattering::eval_cosines`) reuse the connection's; others take the directions.
+    Scatter {
+        lobe: Scattering,
+        wo: Vec3,
+        cos_o: f32,
+    },
+    /// A scattering vertex without another neighbour: it samples nothing.
+    Alone,
+}
+
+impl End {
+    /// The scattering vertex `x` whose other neighbour lies in the unit direction `wo`.
+    #[inline(always)]
+    pub fn scatter<P>(scene: &Scene, x: &Vertex<P>, wo: Vec3) -> Self {
+        End::Scatter {
+            lobe: x.scattering(scene),
+            wo,
+            cos_o: x.n.dot(wo),
+        }
+    }
+
+    /// Vertex `x` of a connection whose other neighbour on its own sub-path is `other`.
+    #[inline]
+    pub fn of<P, Q>(scene: &Scene, x: &Vertex<P>, other: Option<&Vertex<Q>>) -> Self {
+        match (x.kind, other) {
+            (VertexKind::Camera, _) => End::Camera,
+            (VertexKind::Light, _) => End::Emitter {
+                light: x.light,
+                n: x.n,
+            },
+            (_, Some(o)) => End::scatter(scene, x, x.towards(o).0),
+            (_, None) => End::Alone,
+        }
+    }
+
+    /// f_dir towards the unit direction `wi` whose cosine is `cos_i` (eq. 6.2): the lobe of a
+    /// scattering end, 1 elsewhere (the pinhole's and the emitter's factors are W_e and L_e).
+    #[inline(always)]
+    pub fn f(&self, wi: Vec3, cos_i: f32) -> f32 {
+        match *self {
+            End::Scatter { lobe, wo, cos_o } => {
+                let cosines = lobe.eval_cosines(cos_o, cos_i);
+                cosines.unwrap_or_else(|| lobe.eval(wo, wi))
+            }
+            End::Alone => 0.0,
+            _ => 1.0,
+        }
+    }
+
+    /// The solid-angle pdf that this end samples the unit direction `wi` (cosine `cos_i`):
+    /// the pinhole's, the emitter's emission, or the lobe's (pbrt `Vertex::Pdf`).
+    #[inline(always)]
+    pub fn pdf(&self, scene: &Scene, wi: Vec3, cos_i: f32) -> f32 {
+        match *self {
+            End::Camera => {
+                let pdf = scene.camera.pdf_dir_towards(scene.camera.forward, wi);
+                pdf.unwrap_or(0.0)
+            }
+            End::Emitter { light, n } => scene.lights.pdf_le_direction(light as usize, n, wi),
+            End::Scatter { lobe, wo, cos_o } => {
+                let cosines = lobe.pdf_cosines(cos_o, cos_i);
+                cosines.unwrap_or_else(|| lobe.pdf(wo, wi))
+            }
+            End::Alone => 0.0,
+        }
+    }
+}
+
+impl Connection {
+    /// The two area pdfs this connection changes (eq. 6.3, pbrt `Vertex::Pdf`): of x_s sampled
+    /// from x(s−1) (`a`, towards the camera) and of x(s−1) sampled from x_s (`b`), each the
+    /// end's solid-angle pdf turned into an area pdf at the other end.
+    #[inline(always)]
+    pub fn pdfs(&self, scene: &Scene, a: &End, b: &End) -> (f32, f32) {
+        let (w, d2) = (self.seg.w, self.seg.d2);
+        let fwd = a.pdf(scene, w, self.cos_a) * self.abs_b / d2;
+        // the direction back is −w, whose cosine is −(n·w) exactly
+        let rev = b.pdf(scene, -w, -self.cos_b) * self.abs_a / d2;
+        (fwd, rev)
     }
 }
 

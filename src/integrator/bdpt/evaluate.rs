@@ -3,7 +3,7 @@
 
 use super::cache::{SpectralCache, SubpathCache};
 use super::connection::{
-    Connection, Contribution, Seg, camera_term, splat, splat_position, weighted, xyz_weight,
+    Connection, Contribution, End, Seg, camera_term, splat, splat_position, weighted, xyz_weight,
 };
 use super::mis::{FullPath, ResetMode};
 use super::reset;
@@ -192,8 +192,10 @@ fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
         pa_rev[k - 2] = e.pdf_emit(scene, &v[k - 2]) as f64;
     } else {
         // the connection segment x(s−1) ↔ x_s
-        pa_fwd[s] = v[s - 1].pdf(scene, s.checked_sub(2).map(|i| &v[i]), &v[s]) as f64;
-        pa_rev[s - 1] = v[s].pdf(scene, v.get(s + 1), &v[s - 1]) as f64;
+        let a = End::of(scene, &v[s - 1], s.checked_sub(2).map(|i| &v[i]));
+        let b = End::of(scene, &v[s], v.get(s + 1));
+        let (fwd, rev) = Connection::new(&v[s - 1], &v[s]).pdfs(scene, &a, &b);
+        (pa_fwd[s], pa_rev[s - 1]) = (fwd as f64, rev as f64);
         // One vertex further: a phase function's pdf depends on the other neighbour, which the
         // connection changed (a diffuse lobe's does not: the stored pdfs stand).
         if s >= 2 && v[s - 1].kind == VertexKind::Medium {

@@ -1,18 +1,24 @@
 //! `bdpt-forward` and `bdpt-backward`: bidirectional path tracing with one wavelength per path
 //! segment, camera and light sub-paths that sample wavelengths independently, the forward or
-//! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6).
+//! backward wavelength reset at connections, and wavelength-aware MIS (Jung ch. 6); and
+//! `bdpt-allbins` (Jung 6.5) in `allbins/`. docs/design.md §3.3 draws how they share the core.
 //!
-//! - `geometric`: the wavelength-free random walk shared with `bdpt-allbins`; vertices with
-//!   area pdfs in both directions, lobes, light sampling and transmittance come from
-//!   `crate::transport`.
-//! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths and
-//!   area pdfs in both directions.
-//! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets.
-//! - `mis`: the full pdf p_A · p_Λ of every strategy for one path, and the MIS weights.
-//! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19).
-//! - `plain`: the same for paths that cannot shift the wavelength, without assembling them.
-//! - `allbins`: `bdpt-allbins` (Jung 6.5), the same geometric sub-paths evaluated for every
-//!   wavelength bin at once.
+//! The core every BDPT stands on:
+//! - `geometric`: the wavelength-free random walk; vertices with area pdfs in both directions,
+//!   lobes, light sampling and transmittance come from `crate::transport`.
+//! - `connection`: the connecting segment, its two ends' lobes and the pdfs it changes, the
+//!   camera's importance, the shadow ray, the splat and the delivery to the film.
+//! - `weight`: the one MIS ratio walk, with each integrator's pdfs and wavelength pdf ratios.
+//!
+//! What makes bdpt-forward and bdpt-backward different:
+//! - `wavelength`: how a sub-path's first wavelength is drawn, and cache keys;
+//! - `subpath`: camera (Alg. 1) and light (Alg. 3) sub-paths with per-vertex wavelengths;
+//! - `reset`: forward (Alg. 4) and backward (Alg. 5) resets;
+//! - `mis`: the connected path with its wavelengths, and p_Λ(ŝ) of every strategy;
+//! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19);
+//! - `media`: the segments of a connected path through media;
+//! - `plain` and `cache`: the fast evaluation of paths that cannot shift the wavelength, which
+//!   keeps only its product caches.
 
 pub mod allbins;
 pub(crate) mod cache;

@@ -9,25 +9,26 @@
 //!   and t grow, so a connection costs O(1) instead of O(k);
 //! - p_Λ(ŝ) is p_c(λ*) for the camera strategies of the forward reset (eqs. 6.9/6.10 with no
 //!   shift) and p_l(λ*) for light tracing and every strategy of the backward reset (eqs.
-//!   6.11/6.13), and the MIS weight walks the ratios p(ŝ)/p(s) over the sub-paths' stored area
-//!   pdfs from the connection outwards (pbrt's `MISWeight`), so no full path is assembled.
+//!   6.11/6.13), and the MIS weight is the ratio walk of every BDPT (`weight::mis_walk`) over
+//!   the sub-paths' stored area pdfs, so no full path is assembled.
 //!
-//! The same estimator as `evaluate`, with the same random numbers; equal up to rounding, since
-//! the products are taken in another order (tests/bdpt_plain.rs compares them connection by
-//! connection).
+//! What stays here is what makes it fast: the product caches (C, L, the emitter's spectrum and
+//! wavelength pdfs); the connection, its lobes and pdfs, the camera's importance and the MIS
+//! weight are the shared ones of `connection` and `weight`. The same estimator as `evaluate`,
+//! with the same random numbers; equal up to rounding, since the products are taken in another
+//! order (`tests/plain.rs` compares them connection by connection).
 
 use super::cache::{SpectralCache, SubpathCache};
 use super::connection::{
-    Connection, Contribution, camera_term, splat_position, weighted, xyz_weight,
+    Connection, Contribution, End, camera_term, splat_position, weighted, xyz_weight,
 };
 use super::mis::ResetMode;
-use super::subpath::Vertex;
+use super::subpath::{Lambdas, Vertex};
 use super::wavelength::{LambdaKey, light_wavelength};
 use super::weight::mis_walk;
 use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
-use crate::transport::Scattering;
 use glam::Vec3;
 
 /// Products of one sub-path's measurement factors at the wavelength `key`; entry n is C(n + 2)
@@ -399,49 +400,12 @@ impl Bdpt {
     }
 }
 
-/// A scattering end of the connection: its lobe, and the unit direction `wo` to its other
-/// neighbour on its own sub-path with the cosine n·wo. Lobes that depend only on the cosines
-/// (the diffuse lobe, `Scattering::eval_cosines`) reuse the connection's; others take the
-/// directions.
-#[derive(Clone, Copy)]
-struct End {
-    lobe: Scattering,
-    wo: Vec3,
-    cos_o: f32,
-}
-
-impl End {
-    #[inline(always)]
-    fn new<P>(scene: &Scene, x: &crate::transport::Vertex<P>, wo: Vec3) -> Self {
-        End {
-            lobe: x.scattering(scene),
-            wo,
-            cos_o: x.n.dot(wo),
-        }
-    }
-
-    /// f_dir towards `wi`, whose cosine is `cos_i`.
-    #[inline(always)]
-    fn f(&self, wi: Vec3, cos_i: f32) -> f32 {
-        let cosines = self.lobe.eval_cosines(self.cos_o, cos_i);
-        cosines.unwrap_or_else(|| self.lobe.eval(self.wo, wi))
-    }
-
-    /// The solid-angle pdf of sampling `wi` (cosine `cos_i`).
-    #[inline(always)]
-    fn pdf(&self, wi: Vec3, cos_i: f32) -> f32 {
-        let cosines = self.lobe.pdf_cosines(self.cos_o, cos_i);
-        cosines.unwrap_or_else(|| self.lobe.pdf(self.wo, wi))
-    }
-}
-
-/// A connection of a strategy with t ≥ 1 and its scattering ends (x(s−1) for s ≥ 2, x_s for
-/// t ≥ 2), which its pdfs reuse.
+/// A connection of a strategy with t ≥ 1 and its ends, which its pdfs reuse.
 #[derive(Clone, Copy)]
 struct Conn {
     c: Connection,
-    a: Option<End>,
-    b: Option<End>,
+    a: End,
+    b: End,
 }
 
 /// The measurement f of the connection at λ* = `lambda` (eq. 6.2): C(s) · [x(s−1), x_s] ·
@@ -471,17 +435,21 @@ fn measurement(
     let (a, b) = (ends.a, ends.b);
     let c = Connection::new(a, b);
     let w = c.seg.w;
-    // f_dir at the two scattering ends (`Scattering::eval`, from the cosines where it can)
-    let end_a = (s >= 2).then(|| {
+    // the two ends, with the sub-paths' cached directions to their other neighbours, and f_dir
+    // at each (`Scattering::eval`, from the cosines where it can)
+    let end_a = if s >= 2 {
         cam_cache.camera(scene, cam);
-        End::new(scene, a, -cam_cache.seg(s - 2).w)
-    });
-    let end_b = (t >= 2).then(|| {
+        End::scatter(scene, a, -cam_cache.seg(s - 2).w)
+    } else {
+        End::Camera
+    };
+    let end_b = if t >= 2 {
         light_cache.light(scene, light);
-        End::new(scene, b, light_cache.seg(t - 1).w)
-    });
-    let f_a = end_a.map_or(1.0, |e| e.f(w, c.cos_a));
-    let f_b = end_b.map_or(1.0, |e| e.f(-w, -c.cos_b));
+        End::scatter(scene, b, light_cache.seg(t - 1).w)
+    } else {
+        End::of::<_, Lambdas>(scene, b, None)
+    };
+    let (f_a, f_b) = (end_a.f(w, c.cos_a), end_b.f(-w, -c.cos_b));
     if f_a == 0.0 || f_b == 0.0 {
         return None;
     }
@@ -513,19 +481,12 @@ fn measurement(
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
 
-/// The pdfs the connection changes (eq. 6.3, pbrt `Vertex::Pdf`): at a scattering end its
-/// lobe's, at the pinhole and at the emitter their own directional pdfs; each turned into an
-/// area pdf at the other end (the same operations as `Vertex::pdf`, on the connection's own
-/// direction and cosines).
+/// The pdfs the connection changes (`Connection::pdfs`; t = 0: the emitter's light point and
+/// emission pdfs).
 #[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let s = ends.s;
-    let Some(Conn {
-        c,
-        a: end_a,
-        b: end_b,
-    }) = conn
-    else {
+    let Some(Conn { c, a, b }) = conn else {
         // t = 0: the light point and emission pdfs at the emitter x(s−1)
         let e = ends.a;
         let rev = [
@@ -534,24 +495,10 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
         ];
         return Changed { fwd_s: 0.0, rev };
     };
-    let (a, b) = (ends.a, ends.b);
-    let (w, d2) = (c.seg.w, c.seg.d2);
-    let (abs_a, abs_b) = (c.abs_a, c.abs_b);
-    let fwd = match end_a {
-        Some(e) => e.pdf(w, c.cos_a) * abs_b / d2,
-        None => {
-            let pdf = scene.camera.pdf_dir_towards(a.n, w);
-            pdf.map_or(0.0, |p| p * abs_b / d2)
-        }
-    };
-    let rev_dir = match end_b {
-        // wi = −w, whose cosine is −(n·w) exactly
-        Some(e) => e.pdf(-w, -c.cos_b),
-        None => scene.lights.pdf_le_direction(b.light as usize, b.n, -w),
-    };
+    let (fwd, rev) = c.pdfs(scene, &a, &b);
     Changed {
         fwd_s: fwd as f64,
-        rev: [(s - 1, (rev_dir * abs_a / d2) as f64), (usize::MAX, 0.0)],
+        rev: [(s - 1, rev as f64), (usize::MAX, 0.0)],
     }
 }
 

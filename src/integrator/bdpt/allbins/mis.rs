@@ -4,6 +4,7 @@
 
 use super::Vertex;
 use crate::integrator::MisHeuristic;
+use crate::integrator::bdpt::connection::{Connection, End};
 use crate::integrator::bdpt::weight::mis_walk;
 use crate::scene::Scene;
 
@@ -72,9 +73,14 @@ pub fn weight(
     let pt_minus = if t > 1 { Some(&camera[t - 2]) } else { None };
 
     let m = media;
+    // the pdfs across the connection pt ↔ qs (`Connection::pdfs`)
+    let conn = qs.map(|qs| {
+        let (a, b) = (End::of(scene, pt, pt_minus), End::of(scene, qs, qs_minus));
+        Connection::new(pt, qs).pdfs(scene, &a, &b)
+    });
     let o = Overrides {
-        pt: match qs {
-            Some(qs) => qs.pdf(scene, qs_minus, pt) * m.conn_to_camera,
+        pt: match conn {
+            Some((_, rev)) => rev * m.conn_to_camera,
             None => pt.pdf_light_origin(scene),
         },
         pt_minus: match (pt_minus, qs) {
@@ -82,8 +88,8 @@ pub fn weight(
             (Some(pm), None) => pt.pdf_emit(scene, pm) * m.cam_rev,
             _ => 0.0,
         },
-        qs: match qs {
-            Some(qs) => pt.pdf(scene, pt_minus, qs) * m.conn_to_light,
+        qs: match conn {
+            Some((fwd, _)) => fwd * m.conn_to_light,
             None => 0.0,
         },
         qs_minus: match (qs, qs_minus) {
