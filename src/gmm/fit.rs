@@ -40,7 +40,7 @@ pub fn fit_file(path: &Path, opt: &FitOptions) -> Result<GmmFile, Error> {
 /// a folder. Two inputs that would write the same output are an error.
 pub fn targets(input: &Path, out: &Path) -> Result<Vec<(PathBuf, PathBuf)>, Error> {
     let files = if input.is_dir() {
-        super::evaluate::files_with_extension(input, "bfc", "BFC matrix")?
+        super::inputs::files_with_extension(input, "bfc", "BFC matrix")?
     } else {
         vec![input.to_path_buf()]
     };

@@ -1,6 +1,11 @@
 //! Gaussian-mixture reradiation models (Hua et al. 2022) as a whole: evaluating the colour
-//! accuracy of fits of measured matrices (`evaluate`) and its box plots (`boxplot`).
+//! accuracy of fits of measured matrices (`evaluate`, with the colours compared in `colour`, the
+//! matrices and illuminants read in `inputs` and the statistics in `summary`) and its box plots
+//! (`boxplot`).
 
 pub mod boxplot;
+pub mod colour;
 pub mod evaluate;
 pub mod fit;
+pub mod inputs;
+pub mod summary;

@@ -4,10 +4,10 @@
 pub mod bins;
 pub mod cie;
 pub mod colorimetry;
+pub mod gaussian;
 pub mod hero;
 pub mod illuminants;
 pub mod lanes;
-pub mod normal;
 pub mod sampling;
 
 pub use bins::BinGrid;

@@ -13,7 +13,7 @@
 //! ∫ρ dλo of its known wavelength whatever the mixture looks like.
 
 use super::Component;
-use crate::spectrum::normal::{interval_mass, sample_truncated, std_pdf};
+use crate::spectrum::gaussian::{interval_mass, sample_truncated, std_pdf};
 
 /// Largest number of components a model may have (the samplers keep weights on the stack).
 pub const MAX_COMPONENTS: usize = 32;
