@@ -307,8 +307,7 @@ impl Bdpt {
     fn assemble(
         &self,
         scene: &Scene,
-        s: usize,
-        t: usize,
+        (s, t): (usize, usize),
         sampler: &mut Sampler,
         scratch: &mut Scratch,
     ) -> bool {
@@ -344,9 +343,9 @@ impl Bdpt {
         sink: &mut SampleSink,
     ) {
         let c = if !scene.has_media && scratch.plain.covers(s, t) {
-            self.connect_plain(scene, s, t, sampler, scratch, sink.stats)
+            self.connect_plain(scene, (s, t), sampler, scratch, sink.stats)
         } else {
-            self.connect_full(scene, s, t, sampler, scratch, sink.stats)
+            self.connect_full(scene, (s, t), sampler, scratch, sink.stats)
         };
         if let Some(c) = c {
             self.deliver(s, t, c, sink);
@@ -358,14 +357,13 @@ impl Bdpt {
     pub(super) fn connect_full(
         &self,
         scene: &Scene,
-        s: usize,
-        t: usize,
+        (s, t): (usize, usize),
         sampler: &mut Sampler,
         scratch: &mut Scratch,
         stats: &mut Stats,
     ) -> Option<Contribution> {
         let k = s + t;
-        let fresh = self.assemble(scene, s, t, sampler, scratch);
+        let fresh = self.assemble(scene, (s, t), sampler, scratch);
         let path = &mut scratch.path;
         if path.v[k - 1].light == NONE {
             return None;

@@ -233,6 +233,17 @@ impl FullPath {
         out.extend_from_slice(&pr.out);
     }
 
+    /// The wavelength pdf p_Λ(ŝ) of every strategy ŝ = 1 … k (index ŝ − 1) under `mode`, in
+    /// O(k) (eqs. 6.9–6.13): what a reset contributes to the MIS weights.
+    pub fn wavelength_pdfs(&self, mode: ResetMode, out: &mut Vec<f64>) {
+        out.clear();
+        if self.k >= 2 {
+            let mut pr = self.products.borrow_mut();
+            self.fill_wavelength_pdfs(mode, &mut pr);
+            out.extend_from_slice(&pr.lam);
+        }
+    }
+
     /// p_Λ(ŝ) for every ŝ into `pr.lam` (index ŝ − 1) in O(k): forward stores the camera's
     /// prefix products and walks ŝ down, backward stores the light's suffix products and walks
     /// ŝ up (the direction in which its stopping vertex is met first).
@@ -430,6 +441,11 @@ mod tests {
                 p.strategy_pdfs(mode, &mut v);
                 for (i, x) in v.iter().enumerate() {
                     let want = p.strategy_pdf(i + 1, mode);
+                    assert!((x - want).abs() <= 1e-15 * want, "{mode:?} ŝ={}", i + 1);
+                }
+                p.wavelength_pdfs(mode, &mut v);
+                for (i, x) in v.iter().enumerate() {
+                    let want = p.wavelength_pdf(i + 1, mode);
                     assert!((x - want).abs() <= 1e-15 * want, "{mode:?} ŝ={}", i + 1);
                 }
             }

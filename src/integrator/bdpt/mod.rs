@@ -134,8 +134,7 @@ impl Bdpt {
     pub(crate) fn trace_subpaths(
         &self,
         scene: &Scene,
-        x: f32,
-        y: f32,
+        (x, y): (f32, f32),
         sampler: &mut Sampler,
         scratch: &mut Scratch,
         stats: &mut crate::integrator::Stats,
@@ -280,7 +279,7 @@ impl Integrator for Bdpt {
         scratch: &mut Scratch,
         sink: &mut SampleSink,
     ) {
-        self.trace_subpaths(scene, x, y, sampler, scratch, sink.stats);
+        self.trace_subpaths(scene, (x, y), sampler, scratch, sink.stats);
         let md = self.depth.segments;
         let (nc, nl) = (scratch.cam.len(), scratch.light.len());
         // t = 0: the camera path hits an emitter

@@ -314,8 +314,7 @@ impl Bdpt {
     pub(super) fn connect_plain(
         &self,
         scene: &Scene,
-        s: usize,
-        t: usize,
+        (s, t): (usize, usize),
         sampler: &mut Sampler,
         scratch: &mut Scratch,
         stats: &mut Stats,
@@ -529,9 +528,9 @@ pub(crate) fn plain_for_test(
     let mut run = |plain: bool| {
         let (mut sampler, mut stats) = (sampler.clone(), Stats::default());
         let contribution = if plain {
-            b.connect_plain(scene, s, t, &mut sampler, scratch, &mut stats)
+            b.connect_plain(scene, (s, t), &mut sampler, scratch, &mut stats)
         } else {
-            b.connect_full(scene, s, t, &mut sampler, scratch, &mut stats)
+            b.connect_full(scene, (s, t), &mut sampler, scratch, &mut stats)
         };
         PlainTrial {
             contribution,

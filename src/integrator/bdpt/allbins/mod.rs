@@ -288,13 +288,8 @@ impl BdptAllbins {
 
     /// Light sub-path y0 …: spec[i] = M_i · (W_i ∘ spec[i−1]), spec[0] = Le.
     fn trace_light(&self, scene: &Scene, sampler: &mut Sampler, sc: &mut Scratch) -> u64 {
+        let (light, lig, light_log) = (&mut sc.light, &mut sc.lig, &mut sc.light_log);
         let n = self.grid.len();
-        let Scratch {
-            light,
-            lig,
-            light_log,
-            ..
-        } = sc;
         light.clear();
         light_log.clear();
         if self.depth.light_vertices() < 2 {

@@ -40,7 +40,7 @@ fn segment_pdfs_match_the_sampling() {
                     (i % 16) as f32 * 8.0 + 3.0,
                     (i / 16 % 16) as f32 * 8.0 + 3.0,
                 );
-                b.trace_subpaths(&scene, x, y, &mut sampler, &mut scratch, &mut stats);
+                b.trace_subpaths(&scene, (x, y), &mut sampler, &mut scratch, &mut stats);
                 let (nc, nl) = (scratch.camera().len(), scratch.light().len());
                 for s in 1..=nc {
                     for t in 0..=nl {

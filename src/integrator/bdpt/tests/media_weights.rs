@@ -1,7 +1,7 @@
 //! The MIS weights of connected paths with medium vertices: they sum to 1 over the strategies,
 //! and the walk's weight of the sampling strategy equals its entry.
 
-use super::{dye_box, load};
+use super::{assert_weights, dye_box, load};
 use crate::integrator::bdpt::evaluate::connect_for_test;
 use crate::integrator::bdpt::{Bdpt, ResetMode, VertexKind};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
@@ -65,7 +65,7 @@ fn mis_weights_sum_to_one_with_medium_vertices() {
                 for i in 0..12000 {
                     let x = (i % 32) as f32 / 32.0 * w_px + 0.5;
                     let y = (i / 32 % 32) as f32 / 32.0 * h_px + 0.5;
-                    b.trace_subpaths(scene, x, y, &mut sampler, &mut scratch, &mut stats);
+                    b.trace_subpaths(scene, (x, y), &mut sampler, &mut scratch, &mut stats);
                     let (nc, nl) = (scratch.camera().len(), scratch.light().len());
                     for s in 1..=nc {
                         for t in 0..=nl {
@@ -97,19 +97,8 @@ fn mis_weights_sum_to_one_with_medium_vertices() {
                                 n.own_pdf_zero += 1;
                                 continue;
                             }
-                            p.strategy_weights(mode, h, &mut w);
-                            let sum: f64 = w.iter().sum();
-                            assert!(
-                                (sum - 1.0).abs() < 1e-4,
-                                "{name} {mode:?} {h:?} k={k} s={s}: Σw = {sum} ({w:?})"
-                            );
-                            let ws = p.mis_weight(s, mode, h);
-                            assert!(
-                                (ws - w[s - 1]).abs() < 1e-4,
-                                "{name} {mode:?} {h:?} k={k} s={s}: weight of own strategy \
-                                 {ws} vs {}",
-                                w[s - 1]
-                            );
+                            let what = format!("{name} {mode:?} {h:?} k={k} s={s}");
+                            assert_weights(&p, s, (mode, h), &mut w, &what);
                             n.checked += 1;
                             n.lengths[k] += 1;
                             let medium = |i: usize| p.v[i].kind == VertexKind::Medium;

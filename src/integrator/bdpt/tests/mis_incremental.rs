@@ -222,7 +222,7 @@ fn incremental_weights_match_the_quadratic_sums_on_sampled_paths() {
             let (w, h) = (scene.camera.width as f32, scene.camera.height as f32);
             for i in 0..*samples {
                 let (x, y) = ((i % 24) as f32 / 24.0 * w, (i / 24 % 24) as f32 / 24.0 * h);
-                b.trace_subpaths(scene, x, y, &mut sampler, &mut scratch, &mut stats);
+                b.trace_subpaths(scene, (x, y), &mut sampler, &mut scratch, &mut stats);
                 let (nc, nl) = (scratch.camera().len(), scratch.light().len());
                 for s in 1..=nc {
                     for t in 0..=nl {

@@ -95,7 +95,7 @@ fn compare(name: &str, mode: ResetMode, mis: MisHeuristic) -> [usize; 3] {
             (i % 64) as f32 * 4.0 + 0.5,
             (i / 64 % 64) as f32 * 4.0 + 0.5,
         );
-        b.trace_subpaths(&scene, x, y, &mut sampler, &mut scratch, &mut stats);
+        b.trace_subpaths(&scene, (x, y), &mut sampler, &mut scratch, &mut stats);
         let (cam, light) = (scratch.camera().to_vec(), scratch.light().len());
         let list = strategies(
             cam.len(),

@@ -1,6 +1,7 @@
 //! The MIS weights of the full-path evaluation (`FullPath::mis_weight`, the ratio walk of
 //! `weight.rs`) against every strategy's pdf evaluated on its own (`FullPath::strategy_weights`).
 
+use super::assert_weights;
 use crate::integrator::bdpt::evaluate::connect_for_test;
 use crate::integrator::bdpt::{Bdpt, ResetMode};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
@@ -33,7 +34,7 @@ fn mis_weights_sum_to_one() {
                 let mut w = Vec::new();
                 for i in 0..12000 {
                     let (x, y) = ((i % 32) as f32 * 8.0, (i / 32 % 32) as f32 * 8.0);
-                    b.trace_subpaths(&scene, x, y, &mut sampler, &mut scratch, &mut stats);
+                    b.trace_subpaths(&scene, (x, y), &mut sampler, &mut scratch, &mut stats);
                     let (nc, nl) = (scratch.camera().len(), scratch.light().len());
                     for s in 1..=nc {
                         for t in 0..=nl {
@@ -46,22 +47,11 @@ fn mis_weights_sum_to_one() {
                             else {
                                 continue;
                             };
-                            p.strategy_weights(mode, h, &mut w);
-                            let sum: f64 = w.iter().sum();
-                            let ps = p.strategy_pdf(s, mode);
-                            if ps <= 0.0 {
+                            if p.strategy_pdf(s, mode) <= 0.0 {
                                 continue;
                             }
-                            assert!(
-                                (sum - 1.0).abs() < 1e-4,
-                                "{name} {mode:?} k={k} s={s}: Σw = {sum}"
-                            );
-                            let ws = p.mis_weight(s, mode, h);
-                            assert!(
-                                (ws - w[s - 1]).abs() < 1e-4,
-                                "weight of own strategy {ws} vs {}",
-                                w[s - 1]
-                            );
+                            let what = format!("{name} {mode:?} {h:?} k={k} s={s}");
+                            assert_weights(&p, s, (mode, h), &mut w, &what);
                             checked += 1;
                             lengths[k] += 1;
                             if (1..s).any(|i| p.shift[i]) && (s..k - 1).any(|i| p.shift[i]) {
