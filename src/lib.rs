@@ -7,6 +7,49 @@
     not(all(feature = "fluorescence", feature = "media")),
     allow(unused, clippy::ptr_arg)
 )]
+/// An enum of named choices, the values of an option in configs and on the command line. Each
+/// variant is written `Variant = "name"` after its doc comment; the name is its serde name too
+/// (`#[serde(rename)]`, so the enum must derive serde's traits). Generates `ALL` (the variants
+/// in order), `name()` and `help()` (the variant's doc comment, one line per line), from which
+/// the command line builds its possible values.
+macro_rules! named_enum {
+    (@doc) => { "" };
+    (@doc #[doc = $d:literal] $($rest:tt)*) => {
+        concat!($d, "\n", named_enum!(@doc $($rest)*))
+    };
+    (@doc #[$($other:tt)*] $($rest:tt)*) => { named_enum!(@doc $($rest)*) };
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $ty:ident {
+            $( $(#[$($attr:tt)*])* $variant:ident = $name:literal ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        $vis enum $ty {
+            $( $(#[$($attr)*])* #[serde(rename = $name)] $variant, )+
+        }
+
+        impl $ty {
+            /// Every variant, in the order of declaration.
+            pub const ALL: [$ty; [$($name),+].len()] = [$($ty::$variant),+];
+
+            /// The variant's name in configs and on the command line.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)+
+                }
+            }
+
+            /// The variant's doc comment (empty without one), one line per line.
+            pub const fn help(self) -> &'static str {
+                match self {
+                    $($ty::$variant => named_enum!(@doc $(#[$($attr)*])*),)+
+                }
+            }
+        }
+    };
+}
+
 pub mod cli;
 pub mod error;
 pub mod experiment;

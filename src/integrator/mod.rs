@@ -20,32 +20,24 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-/// The integrators stokes offers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum IntegratorKind {
-    /// Uni-directional path tracer, one wavelength per path (Mojzík §6; Jung 5.3 at fluorescent vertices).
-    PtMono,
-    /// Uni-directional path tracer with hero wavelength spectral sampling (Mojzík §6.2).
-    PtHero,
-    /// Bidirectional path tracer with the forward wavelength reset (Jung 6.3.1.1).
-    BdptForward,
-    /// Bidirectional path tracer with the backward wavelength reset (Jung 6.3.1.2).
-    BdptBackward,
-    /// Geometric BDPT evaluated for every wavelength bin (Jung 6.5).
-    BdptAllbins,
+named_enum! {
+    /// The integrators stokes offers.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+    pub enum IntegratorKind {
+        /// Uni-directional path tracer, one wavelength per path (Mojzík §6; Jung 5.3 at fluorescent vertices).
+        PtMono = "pt-mono",
+        /// Uni-directional path tracer with hero wavelength spectral sampling (Mojzík §6.2).
+        PtHero = "pt-hero",
+        /// Bidirectional path tracer with the forward wavelength reset (Jung 6.3.1.1).
+        BdptForward = "bdpt-forward",
+        /// Bidirectional path tracer with the backward wavelength reset (Jung 6.3.1.2).
+        BdptBackward = "bdpt-backward",
+        /// Geometric BDPT evaluated for every wavelength bin (Jung 6.5).
+        BdptAllbins = "bdpt-allbins",
+    }
 }
 
 impl IntegratorKind {
-    pub fn name(&self) -> &'static str {
-        match self {
-            IntegratorKind::PtMono => "pt-mono",
-            IntegratorKind::PtHero => "pt-hero",
-            IntegratorKind::BdptForward => "bdpt-forward",
-            IntegratorKind::BdptBackward => "bdpt-backward",
-            IntegratorKind::BdptAllbins => "bdpt-allbins",
-        }
-    }
     /// Whether the integrator can make a spectral image, and why not: bdpt-allbins carries the
     /// camera's three CIE importance rows through the path, not per-bin radiance.
     pub fn spectral_support(&self) -> Result<(), String> {
@@ -60,24 +52,20 @@ impl IntegratorKind {
         }
     }
 
+    /// Every integrator ([`IntegratorKind::ALL`]).
     pub fn all() -> [IntegratorKind; 5] {
-        [
-            IntegratorKind::PtMono,
-            IntegratorKind::PtHero,
-            IntegratorKind::BdptForward,
-            IntegratorKind::BdptBackward,
-            IntegratorKind::BdptAllbins,
-        ]
+        Self::ALL
     }
 }
 
-/// MIS heuristic.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MisHeuristic {
-    #[default]
-    Balance,
-    Power,
+named_enum! {
+    /// MIS heuristic.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+    pub enum MisHeuristic {
+        #[default]
+        Balance = "balance",
+        Power = "power",
+    }
 }
 
 impl MisHeuristic {
@@ -106,17 +94,18 @@ impl MisHeuristic {
     }
 }
 
-/// How pt-hero weights its lanes in media, where each lane's distance pdf differs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LaneWeighting {
-    /// The balance heuristic over every lane's path pdf, distance decisions included
-    /// (docs/design.md §4): lane j is weighted by 1 / Σ_k p(λ_k)·r_k.
-    #[default]
-    Balance,
-    /// Mojzík's HWSS (§6.2): the hero's distance decisions alone, every lane weighted by
-    /// 1 / Σ_k p(λ_k) as without media; each lane keeps its own f / p_hero.
-    Hero,
+named_enum! {
+    /// How pt-hero weights its lanes in media, where each lane's distance pdf differs.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+    pub enum LaneWeighting {
+        /// The balance heuristic over every lane's path pdf, distance decisions included
+        /// (docs/design.md §4): lane j is weighted by 1 / Σ_k p(λ_k)·r_k.
+        #[default]
+        Balance = "balance",
+        /// Mojzík's HWSS (§6.2): the hero's distance decisions alone, every lane weighted by
+        /// 1 / Σ_k p(λ_k) as without media; each lane keeps its own f / p_hero.
+        Hero = "hero",
+    }
 }
 
 /// Options shared by the integrators; each integrator reads the ones it needs. In experiment

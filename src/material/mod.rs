@@ -24,25 +24,16 @@ pub use reradiation_gmm::ReradiationGmm;
 
 use crate::spectrum::{BinGrid, Domain, Lanes};
 
-/// How the new wavelength is chosen at a fluorescent vertex (Jung 7.1.2).
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    PartialEq,
-    Eq,
-    Default,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
-#[serde(rename_all = "kebab-case")]
-pub enum WavelengthSampling {
-    /// Emission spectrum on light paths, absorption spectrum on camera paths (Jung 5.3.2).
-    #[default]
-    Importance,
-    /// Uniform over the wavelength domain.
-    Uniform,
+named_enum! {
+    /// How the new wavelength is chosen at a fluorescent vertex (Jung 7.1.2).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+    pub enum WavelengthSampling {
+        /// Emission spectrum on light paths, absorption spectrum on camera paths (Jung 5.3.2).
+        #[default]
+        Importance = "importance",
+        /// Uniform over the wavelength domain.
+        Uniform = "uniform",
+    }
 }
 
 /// Which sub-path arrives at a vertex (Jung 5.3). A camera path knows the exitant wavelength

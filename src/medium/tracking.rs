@@ -13,18 +13,19 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The distance-tracking scheme (`--tracking`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Tracking {
-    /// Classic sampling by σ̂t of the current wavelength: misses collisions where σ̂t < σ̂s
-    /// (Mojzík Fig. 10a).
-    Exponential,
-    /// Exponential sampling by max(σ̂t, σ̂s), the hot-fix of Mojzík §5.2.
-    Max,
-    /// Fluorescence-aware tracking (Mojzík eq. 6); in grid media the max hot-fix majorant (§7.5).
-    #[default]
-    Aware,
+named_enum! {
+    /// The distance-tracking scheme (`--tracking`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+    pub enum Tracking {
+        /// Classic sampling by σ̂t of the current wavelength: misses collisions where σ̂t < σ̂s
+        /// (Mojzík Fig. 10a).
+        Exponential = "exponential",
+        /// Exponential sampling by max(σ̂t, σ̂s), the hot-fix of Mojzík §5.2.
+        Max = "max",
+        /// Fluorescence-aware tracking (Mojzík eq. 6); in grid media the max hot-fix majorant (§7.5).
+        #[default]
+        Aware = "aware",
+    }
 }
 
 /// The outcome of a free flight.

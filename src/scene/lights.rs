@@ -152,15 +152,16 @@ fn first_above(cdf: &[f32], u: f32) -> usize {
     }
 }
 
-/// How light sub-paths choose their first wavelength (Jung 6.2.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LightWavelengths {
-    /// Option 4: ∝ the chosen light's emission spectrum.
-    #[default]
-    Emission,
-    /// Option 1: uniform over the domain.
-    Uniform,
+named_enum! {
+    /// How light sub-paths choose their first wavelength (Jung 6.2.1).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+    pub enum LightWavelengths {
+        /// Option 4: ∝ the chosen light's emission spectrum.
+        #[default]
+        Emission = "emission",
+        /// Option 1: uniform over the domain.
+        Uniform = "uniform",
+    }
 }
 
 /// Incident light sampled at a point (next-event estimation).

@@ -246,25 +246,16 @@ impl Observer {
     }
 }
 
-/// How camera paths choose their wavelength.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    PartialEq,
-    Eq,
-    Default,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
-#[serde(rename_all = "kebab-case")]
-pub enum CameraWavelengths {
-    /// Uniform over the camera range.
-    #[default]
-    Uniform,
-    /// Proportional to x̄ + ȳ + z̄.
-    Cmf,
+named_enum! {
+    /// How camera paths choose their wavelength.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+    pub enum CameraWavelengths {
+        /// Uniform over the camera range.
+        #[default]
+        Uniform = "uniform",
+        /// Proportional to x̄ + ȳ + z̄.
+        Cmf = "cmf",
+    }
 }
 
 fn cmf_sum_spectrum() -> Spectrum {

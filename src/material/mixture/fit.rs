@@ -5,25 +5,16 @@ use super::file::{FORMAT, FitInfo, Grid, Source};
 use super::{ConditionalMixture, GmmFile, WeightedPoints, bayes, em};
 use crate::material::reradiation::BfcMatrix;
 
-/// The fitting algorithm.
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    PartialEq,
-    Eq,
-    Default,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
-#[serde(rename_all = "kebab-case")]
-pub enum FitMethod {
-    /// Weighted expectation–maximisation.
-    #[default]
-    Em,
-    /// Weighted variational Bayesian inference (may use fewer components than asked).
-    Bayes,
+named_enum! {
+    /// The fitting algorithm.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+    pub enum FitMethod {
+        /// Weighted expectation–maximisation.
+        #[default]
+        Em = "em",
+        /// Weighted variational Bayesian inference (may use fewer components than asked).
+        Bayes = "bayes",
+    }
 }
 
 /// Settings of one fit.

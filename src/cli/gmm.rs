@@ -1,0 +1,270 @@
+//! `stokes gmm fit`, `dense` and `eval`: Gaussian-mixture reradiation models and their checks.
+
+use super::{choice, output_error};
+use crate::Error;
+use crate::io::output::{canonical_output, check_output};
+use crate::io::text::show_path;
+use crate::material::mixture::{FitMethod, FitOptions};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+/// The defaults of `gmm fit`: 8 Gaussians, the default method, seed 0, and the core's iteration
+/// limit and tolerance.
+fn fit_defaults() -> FitOptions {
+    FitOptions::new(8, FitMethod::default(), 0)
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmFitArgs {
+    /// A BFC file, or a folder of them.
+    pub input: PathBuf,
+    /// Gaussians per mixture (at most 32; `bayes` may use fewer).
+    #[arg(long, default_value_t = fit_defaults().components)]
+    pub components: usize,
+    /// Weighted EM, or weighted variational Bayesian inference (Hua §5.2).
+    #[arg(long, value_parser = choice::<FitMethod>(), default_value = fit_defaults().method.name())]
+    pub method: FitMethod,
+    /// Seed of the k-means++ initialisation; fits are deterministic for a seed.
+    #[arg(long, default_value_t = fit_defaults().seed)]
+    pub seed: u64,
+    /// Iteration limit of a fit.
+    #[arg(long, default_value_t = fit_defaults().max_iterations)]
+    pub max_iterations: usize,
+    /// Convergence: stop when the mean log-likelihood changes by less than this.
+    #[arg(long, default_value_t = fit_defaults().tolerance)]
+    pub tolerance: f64,
+    /// Output model file (one input file) or folder (a folder of inputs: `<STEM>.json` each).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmDenseArgs {
+    /// A fitted model file (`stokes gmm fit`).
+    pub model: PathBuf,
+    /// Cell size of the matrix in nm; must divide the measured support (1, 2, 5, 10 for RIT).
+    #[arg(long, default_value_t = 1.0)]
+    pub step: f32,
+    /// Output BFC file, for the `reradiation` material.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// An output file of a `gmm` command, checked before any work as `render` checks its own: the
+/// name ends in `.ext` (`why` says why), it is a regular file or new, with a legal name in a
+/// folder that takes a new file, and it is not the input file. Returns the path to write.
+fn check_output_file(
+    opt: &str,
+    p: &Path,
+    ext: &str,
+    why: &str,
+    input: &Path,
+) -> Result<PathBuf, Error> {
+    if !crate::film::output::has_extension(p, ext) {
+        return Err(Error::input(format!("{opt} '{}': {why}", show_path(p))));
+    }
+    let target = check_output(p).map_err(|e| output_error(opt, p, e))?;
+    let input = std::fs::canonicalize(input).unwrap_or_else(|_| canonical_output(input));
+    if canonical_output(&target) == input {
+        return Err(Error::input(format!(
+            "{opt} '{}' is the input file '{}': give the output its own path",
+            show_path(p),
+            show_path(&input)
+        )));
+    }
+    Ok(target)
+}
+
+/// Write the dense matrix a model evaluates to, as a BFC file.
+pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
+    use crate::material::mixture::GmmFile;
+    let out = check_output_file(
+        "-o/--output",
+        &a.output,
+        "bfc",
+        "the matrix is written as a BFC file, so its name must end in .bfc (or .BFC)",
+        &a.model,
+    )?;
+    let text =
+        crate::io::input::read_text(&a.model, crate::io::input::GMM_MODEL).map_err(Error::input)?;
+    let f = GmmFile::parse(&text)
+        .map_err(|m| Error::input(format!("malformed GMM file '{}': {m}", a.model.display())))?;
+    let m = f.to_matrix_at(a.step).map_err(|m| {
+        Error::input(format!(
+            "--{m}, on the measured support of the model '{}'",
+            a.model.display()
+        ))
+    })?;
+    let title = format!(
+        "dense {} nm matrix of the GMM fit of {}",
+        a.step, f.source.file
+    );
+    crate::io::output::write_bytes(&out, m.to_bfc(&title).as_bytes()).map_err(Error::runtime)?;
+    println!(
+        "{}: {}×{} cells of {} nm",
+        a.output.display(),
+        m.n_em,
+        m.n_ex,
+        a.step
+    );
+    Ok(())
+}
+
+pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
+    let mut opt = FitOptions::new(a.components, a.method, a.seed);
+    opt.max_iterations = a.max_iterations;
+    opt.tolerance = a.tolerance;
+    if !a.input.exists() {
+        return Err(Error::input(format!(
+            "'{}' does not exist (give a BFC file or a folder of them)",
+            a.input.display()
+        )));
+    }
+    let jobs = crate::gmm::fit::targets(&a.input, &a.output)?;
+    let jobs = check_fit_outputs(a, jobs)?;
+    let t = std::time::Instant::now();
+    let fitted = crate::gmm::fit::fit(&jobs, &opt)?;
+    let secs = t.elapsed().as_secs_f64();
+    for f in &fitted {
+        let m = &f.model;
+        println!(
+            "{}: {} components, {} iterations{}, scale {:.4} nm -> {}",
+            f.input.display(),
+            m.components.len(),
+            m.fit.iterations,
+            if m.fit.converged {
+                ""
+            } else {
+                " (not converged)"
+            },
+            m.scale,
+            f.output.display()
+        );
+    }
+    let unconverged = fitted.iter().filter(|f| !f.model.fit.converged).count();
+    println!(
+        "fitted {} matrices ({} components, {:?}, seed {}) in {secs:.2} s; {unconverged} did not converge",
+        fitted.len(),
+        a.components,
+        a.method,
+        a.seed
+    );
+    Ok(())
+}
+
+/// The outputs of `gmm fit`, checked before anything is fitted: a folder of inputs is fitted
+/// into the folder `-o` (created if missing, like `render --strategy-images`), which must take
+/// new files; one input into a `.json` file in an existing folder (or into an existing folder).
+/// Every model file is a regular file or new ([`crate::io::output::check_output`]). Returns the
+/// jobs with the paths to write.
+fn check_fit_outputs(
+    a: &GmmFitArgs,
+    jobs: Vec<(PathBuf, PathBuf)>,
+) -> Result<Vec<(PathBuf, PathBuf)>, Error> {
+    let opt = "-o/--output";
+    if a.input.is_dir() || a.output.is_dir() {
+        if a.output.exists() && !a.output.is_dir() {
+            return Err(Error::input(format!(
+                "{opt} '{}': a folder of BFC files is fitted into a folder, but this is a file",
+                show_path(&a.output)
+            )));
+        }
+        std::fs::create_dir_all(&a.output)
+            .map_err(|e| format!("cannot create the folder: {e}"))
+            .and_then(|()| crate::io::output::check_folder(&a.output))
+            .map_err(|e| Error::input(format!("{opt} '{}': {e}", show_path(&a.output))))?;
+        return jobs
+            .into_iter()
+            .map(|(input, out)| {
+                let target = crate::io::output::refuse_non_regular(&out)
+                    .map(|()| out.clone())
+                    .map_err(|e| {
+                        Error::input(format!(
+                            "{opt}: the model of '{}' cannot be written: {e}",
+                            show_path(&input)
+                        ))
+                    })?;
+                Ok((input, target))
+            })
+            .collect();
+    }
+    jobs.into_iter()
+        .map(|(input, out)| {
+            let target = check_output_file(
+                opt,
+                &out,
+                "json",
+                "the model is written as JSON, so its name must end in .json (or give a folder)",
+                &input,
+            )?;
+            Ok((input, target))
+        })
+        .collect()
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmEvalArgs {
+    /// A folder of BFC files (e.g. data/bispectral/rit).
+    pub dir: PathBuf,
+    /// Numbers of Gaussians to fit, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "2,4,8")]
+    pub components: Vec<usize>,
+    #[arg(long, value_parser = choice::<FitMethod>(), default_value = FitMethod::default().name())]
+    pub method: FitMethod,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A folder of illuminant tables ("λ, value" CSV files) to use instead of the 59 CIE
+    /// illuminants built into stokes.
+    #[arg(long)]
+    pub illuminants: Option<PathBuf>,
+    /// Output folder: delta-e00.csv, summary.json, box plots.
+    #[arg(short, long, default_value = crate::gmm::evaluate::DEFAULT_OUT)]
+    pub output: PathBuf,
+}
+
+/// ΔE00 of fitted against measured matrices under CIE illuminants and monochromatic light.
+pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
+    let s = crate::gmm::evaluate::evaluate(
+        &a.dir,
+        &a.components,
+        a.method,
+        a.seed,
+        &a.output,
+        a.illuminants.as_deref(),
+    )?;
+    println!(
+        "{} matrices, {} illuminants, {} monochromatic lines, {:?} fits, {:.1} s",
+        s.materials.len(),
+        s.illuminants.len(),
+        s.mono_wavelengths.len(),
+        s.method,
+        s.seconds
+    );
+    println!(
+        "  K | ΔE00 CIE mean  median     p95     max | mono mean  median     p95     max | worst under CIE"
+    );
+    for c in &s.per_components {
+        println!(
+            "{:>3} | {:>13.3} {:>7.3} {:>7.3} {:>7.3} | {:>9.3} {:>7.3} {:>7.3} {:>7.3} | {}",
+            c.components,
+            c.cie.mean,
+            c.cie.median,
+            c.cie.p95,
+            c.cie.max,
+            c.mono.mean,
+            c.mono.median,
+            c.mono.p95,
+            c.mono.max,
+            c.worst_cie
+                .iter()
+                .take(3)
+                .map(|m| format!("{} {:.2}", m.material, m.mean))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    for f in &s.outputs {
+        println!("{}", f.display());
+    }
+    Ok(())
+}
