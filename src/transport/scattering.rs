@@ -98,24 +98,23 @@ impl Scattering {
         }
     }
 
-    /// [`Scattering::eval`] from the cosines n·wo and n·wi of the two directions, for a lobe
-    /// that depends on nothing else (the diffuse lobe); `None` for one that needs the
-    /// directions themselves (a phase function). Connections that have the cosines at hand
-    /// save the dot products.
+    /// [`Scattering::eval`] given also the cosines n·wo and n·wi of the two directions, which
+    /// a lobe that depends on nothing else (the diffuse lobe) uses instead of the directions:
+    /// connections that have the cosines at hand save the dot products.
     #[inline(always)]
-    pub fn eval_cosines(&self, cos_o: f32, cos_i: f32) -> Option<f32> {
+    pub fn eval_with_cosines(&self, (wo, cos_o): (Vec3, f32), (wi, cos_i): (Vec3, f32)) -> f32 {
         match *self {
-            Scattering::Diffuse { .. } => Some(diffuse_f(cos_o, cos_i)),
-            Scattering::HenyeyGreenstein { .. } => None,
+            Scattering::Diffuse { .. } => diffuse_f(cos_o, cos_i),
+            Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
         }
     }
 
-    /// [`Scattering::pdf`] from the cosines n·wo and n·wi, as [`Scattering::eval_cosines`].
+    /// [`Scattering::pdf`] given also the cosines, as [`Scattering::eval_with_cosines`].
     #[inline(always)]
-    pub fn pdf_cosines(&self, cos_o: f32, cos_i: f32) -> Option<f32> {
+    pub fn pdf_with_cosines(&self, (wo, cos_o): (Vec3, f32), (wi, cos_i): (Vec3, f32)) -> f32 {
         match *self {
-            Scattering::Diffuse { .. } => Some(diffuse_pdf(cos_o, cos_i)),
-            Scattering::HenyeyGreenstein { .. } => None,
+            Scattering::Diffuse { .. } => diffuse_pdf(cos_o, cos_i),
+            Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
         }
     }
 

@@ -106,7 +106,7 @@ pub enum End {
     Emitter { light: u32, n: Vec3 },
     /// A scattering vertex: its lobe, the unit direction `wo` to its other neighbour on its own
     /// sub-path and the cosine n·wo. Lobes that depend only on the cosines (the diffuse lobe,
-    /// `Scattering::eval_cosines`) reuse the connection's; others take the directions.
+    /// `Scattering::eval_with_cosines`) reuse the connection's; others take the directions.
     Scatter {
         lobe: Scattering,
         wo: Vec3,
@@ -145,11 +145,8 @@ impl End {
     /// scattering end, 1 elsewhere (the pinhole's and the emitter's factors are W_e and L_e).
     #[inline(always)]
     pub fn f(&self, wi: Vec3, cos_i: f32) -> f32 {
-        match *self {
-            End::Scatter { lobe, wo, cos_o } => {
-                let cosines = lobe.eval_cosines(cos_o, cos_i);
-                cosines.unwrap_or_else(|| lobe.eval(wo, wi))
-            }
+        match self {
+            End::Scatter { lobe, wo, cos_o } => lobe.eval_with_cosines((*wo, *cos_o), (wi, cos_i)),
             End::Alone => 0.0,
             _ => 1.0,
         }
@@ -159,16 +156,13 @@ impl End {
     /// the pinhole's, the emitter's emission, or the lobe's (pbrt `Vertex::Pdf`).
     #[inline(always)]
     pub fn pdf(&self, scene: &Scene, wi: Vec3, cos_i: f32) -> f32 {
-        match *self {
+        match self {
             End::Camera => {
                 let pdf = scene.camera.pdf_dir_towards(scene.camera.forward, wi);
                 pdf.unwrap_or(0.0)
             }
-            End::Emitter { light, n } => scene.lights.pdf_le_direction(light as usize, n, wi),
-            End::Scatter { lobe, wo, cos_o } => {
-                let cosines = lobe.pdf_cosines(cos_o, cos_i);
-                cosines.unwrap_or_else(|| lobe.pdf(wo, wi))
-            }
+            End::Emitter { light, n } => scene.lights.pdf_le_direction(*light as usize, *n, wi),
+            End::Scatter { lobe, wo, cos_o } => lobe.pdf_with_cosines((*wo, *cos_o), (wi, cos_i)),
             End::Alone => 0.0,
         }
     }
@@ -248,7 +242,7 @@ pub fn weighted(
 
 /// Splat `xyz` of strategy (s, t) at film position (x, y) (light tracing), and into its
 /// strategy image when `images`; false when it did not reach the film.
-#[inline]
+#[inline(always)]
 pub fn splat(
     sink: &mut SampleSink,
     (s, t): (usize, usize),

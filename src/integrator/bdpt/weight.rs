@@ -34,7 +34,22 @@ pub fn mis_walk(
     lambda: impl Fn(usize) -> f64,
     h: MisHeuristic,
 ) -> (f64, f64) {
-    let power = |r: f64| if h == MisHeuristic::Power { r * r } else { r };
+    // one copy of the loops per heuristic, without its test inside them
+    match h {
+        MisHeuristic::Power => walk::<true>(lower, upper, s, lambda),
+        MisHeuristic::Balance => walk::<false>(lower, upper, s, lambda),
+    }
+}
+
+/// [`mis_walk`] for the balance (`POWER` false) or the power heuristic (β = 2).
+#[inline(always)]
+fn walk<const POWER: bool>(
+    lower: impl Iterator<Item = (f64, f64)>,
+    upper: impl Iterator<Item = (f64, f64)>,
+    s: usize,
+    lambda: impl Fn(usize) -> f64,
+) -> (f64, f64) {
+    let power = |r: f64| if POWER { r * r } else { r };
     let (mut area, mut down) = (1.0, 0.0);
     for (m, (fwd, rev)) in (1..).zip(lower) {
         // p(ŝ)/p(s) for ŝ = 1 … m: each gains the factor pa_rev/pa_fwd of x_m, and ŝ = m joins
