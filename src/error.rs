@@ -50,8 +50,8 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
-impl From<crate::scene::InputError> for Error {
-    fn from(e: crate::scene::InputError) -> Self {
+impl From<crate::io::InputError> for Error {
+    fn from(e: crate::io::InputError) -> Self {
         Error::input(e.to_string())
     }
 }

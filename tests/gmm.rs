@@ -67,7 +67,7 @@ struct Fixture {
 }
 
 /// The room with `material` (JSON) as the dye, loaded as `dir/scene.json`.
-fn room(dir: &Path, material: &str) -> Result<Scene, stokes::scene::InputError> {
+fn room(dir: &Path, material: &str) -> Result<Scene, stokes::io::InputError> {
     let text = ROOM.replace("DYE", material);
     let path = dir.join("scene.json");
     std::fs::write(&path, &text).unwrap();

@@ -248,7 +248,7 @@ fn fits_at_load_are_cached_by_content_and_settings() {
     let model = stokes::material::mixture::GmmFile::parse(&text).unwrap();
     assert_eq!(
         model.source.sha256,
-        stokes::material::mixture::file::sha256_hex(GOLFYE.as_bytes())
+        stokes::io::hash::sha256_hex(GOLFYE.as_bytes())
     );
     // Reused as it is.
     let (_, err) = inspect(&three);

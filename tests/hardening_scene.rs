@@ -9,7 +9,8 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use stokes::integrator::{IntegratorKind, IntegratorOptions, RenderSettings, render};
-use stokes::scene::{InputError, Scene};
+use stokes::io::InputError;
+use stokes::scene::Scene;
 
 /// A valid small scene that the cases below break in one place: a floor, a ball and a light.
 fn good() -> Value {

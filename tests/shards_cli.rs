@@ -8,7 +8,8 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use stokes::film::output::read_exr;
-use stokes::film::shard::{read_shard, scene_hash};
+use stokes::film::shard::read_shard;
+use stokes::io::hash::text_hash;
 
 use common::{bin, expect_input_error, repo, s};
 
@@ -187,7 +188,7 @@ fn plain_render_carries_the_attributes_but_not_the_sums() {
     assert!(film["scene"].as_str().unwrap().ends_with("walls.json"));
     assert_eq!(
         film["sceneHash"],
-        scene_hash(&std::fs::read_to_string(&scene).unwrap())
+        text_hash(&std::fs::read_to_string(&scene).unwrap())
     );
     assert_eq!(film["options"]["lanes"], 4);
     let e = read_shard(&out)

@@ -2,8 +2,8 @@
 //! cannot make. Errors name the file and the JSON path of the field, like scene errors.
 
 use crate::integrator::{IntegratorKind, IntegratorOptions};
-use crate::scene::InputError;
-use crate::scene::error::from_json_str;
+use crate::io::InputError;
+use crate::io::json::from_json_str;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -58,12 +58,8 @@ fn one() -> u32 {
     1
 }
 
-/// Most worker threads (`threads`, and `--threads` of `stokes render`).
-pub const MAX_THREADS: usize = 1024;
-/// Most samples per pixel of a budget or a reference.
-pub const MAX_SPP: u32 = 1 << 24;
-/// Longest time budget, seconds.
-pub const MAX_SECONDS: f64 = 1e7;
+// re-export for the CLI until it is split
+pub use crate::io::limits::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 /// Most budgets per kind, variants, and values of a sweep.
 pub const MAX_LIST: usize = 1000;
 /// Most values along each axis of a parameter grid.

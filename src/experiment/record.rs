@@ -56,7 +56,7 @@ impl RunInfo {
         let p = dir.join("run.json");
         let text =
             crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
-        let info: RunInfo = crate::scene::error::from_json_str(&p, &text)?;
+        let info: RunInfo = crate::io::json::from_json_str(&p, &text)?;
         info.check(&p)?;
         Ok(info)
     }

@@ -152,7 +152,7 @@ pub fn render_shard(
 /// Cache key of a rendered reference: scene text, integrator, options, spp, seed, resolution.
 fn cache_key(s: &Setup, r: &Reference) -> u64 {
     let opts_json = serde_json::to_string(&r.options).unwrap();
-    fnv1a(&[
+    crate::io::hash::fnv1a(&[
         s.scene_text.as_bytes(),
         r.integrator.unwrap().name().as_bytes(),
         opts_json.as_bytes(),
@@ -160,18 +160,6 @@ fn cache_key(s: &Setup, r: &Reference) -> u64 {
         r.seed.to_string().as_bytes(),
         format!("{}x{}", s.width, s.height).as_bytes(),
     ])
-}
-
-/// FNV-1a, stable across builds (for the reference cache key).
-fn fnv1a(parts: &[&[u8]]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for p in parts {
-        for b in p.iter().chain(&[0xffu8]) {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x100_0000_01b3);
-        }
-    }
-    h
 }
 
 /// Nearest-neighbour resample (for an EXR reference at another resolution under `--quick`).

@@ -10,7 +10,8 @@ use super::record::{Row, SummaryEntry, summarize};
 use super::setup::Setup;
 use crate::error::Error;
 use crate::integrator::with_threads;
-use crate::scene::{InputError, Scene};
+use crate::io::InputError;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::path::Path;
@@ -123,7 +124,7 @@ impl SweepRecord {
         let p = dir.join("sweep.json");
         let text =
             crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
-        let rec: SweepRecord = crate::scene::error::from_json_str(&p, &text)?;
+        let rec: SweepRecord = crate::io::json::from_json_str(&p, &text)?;
         for (i, pt) in rec.points.iter().enumerate() {
             if !super::record::safe_relative(&pt.dir) {
                 return Err(Error::input(format!(

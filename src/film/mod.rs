@@ -4,7 +4,6 @@
 pub mod output;
 pub mod shard;
 pub mod spectral;
-pub mod text;
 
 use glam::Vec3;
 

@@ -3,9 +3,9 @@
 //! OpenEXR read back through [`crate::io::input`] (a regular file, its size checked from the
 //! header before anything is allocated).
 
-pub use crate::io::output::{
-    canonical_output, check_output, has_extension, in_flight_paths, remove_in_flight, write_atomic,
-};
+// re-export for the CLI until it is split
+use crate::io::output::write_atomic;
+pub use crate::io::output::{has_extension, remove_in_flight};
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
 use std::path::Path;
@@ -74,7 +74,7 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(
 }
 
 /// Most pixels of an EXR we read back (any image the renderer can make fits).
-pub const MAX_READ_PIXELS: usize = 1 << 26;
+pub const MAX_READ_PIXELS: usize = crate::io::limits::MAX_PIXELS as usize;
 
 /// Read an RGB(A) OpenEXR as linear sRGB. It must be a regular file; its size is checked from
 /// the header before anything is allocated.

@@ -51,13 +51,6 @@ pub struct Shard {
 const SUMS: [&str; 2] = ["sum", "splat"];
 const XYZ: [&str; 3] = ["X", "Y", "Z"];
 
-/// Hash of a scene file's text (SHA-256, first 16 bytes in hex).
-pub fn scene_hash(text: &str) -> String {
-    use sha2::Digest;
-    let d = sha2::Sha256::digest(text.as_bytes());
-    d[..16].iter().map(|b| format!("{b:02x}")).collect()
-}
-
 /// Parse a sample range `FROM..TO` (TO exclusive, FROM < TO).
 pub fn parse_range(s: &str) -> Result<(u32, u32), String> {
     let (a, b) = s
@@ -419,11 +412,5 @@ mod tests {
         ] {
             assert!(parse_range(bad).is_err(), "{bad}");
         }
-    }
-
-    #[test]
-    fn scene_hash_depends_on_every_byte() {
-        assert_eq!(scene_hash("{}").len(), 32);
-        assert_ne!(scene_hash("{}"), scene_hash("{} "));
     }
 }

@@ -7,12 +7,12 @@
 //! NumPy and R). Each figure is written as SVG and as PNG. The SVG's text is laid out with
 //! plotters' built-in estimate, as the project's other figures are; the PNG's text is drawn by
 //! [`TextBitmap`] with DejaVu Sans compiled into the binary (`data/fonts/`, through
-//! [`crate::film::text`]), so no system font is read. (Plotters' own `ab_glyph` feature would do
+//! [`crate::experiment::figures::text`]), so no system font is read. (Plotters' own `ab_glyph` feature would do
 //! this through a process-wide font table, but it makes every plotters text lookup, SVG
 //! included, fail until a font is registered, which breaks the experiment figures.)
 
-use crate::film::output::write_atomic;
-use crate::film::text;
+use crate::experiment::figures::text;
+use crate::io::output::write_atomic;
 use ab_glyph::FontRef;
 use plotters::coord::Shift;
 use plotters::prelude::*;

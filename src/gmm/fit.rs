@@ -2,8 +2,8 @@
 //! (docs/gmm.md).
 
 use crate::Error;
+use crate::io::hash::sha256_hex;
 use crate::io::output::write_bytes;
-use crate::material::mixture::file::sha256_hex;
 use crate::material::mixture::{FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
 use indicatif::ProgressBar;

@@ -141,7 +141,7 @@ pub fn shard_info(
     };
     crate::film::shard::ShardInfo {
         scene: scene.display().to_string(),
-        scene_hash: crate::film::shard::scene_hash(scene_text),
+        scene_hash: crate::io::hash::text_hash(scene_text),
         integrator: kind.name().into(),
         options: serde_json::to_string(&opts).unwrap(),
         seed,

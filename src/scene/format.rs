@@ -8,7 +8,8 @@
 //! `#[serde(flatten)]`; so `shape_kinds!` writes the fields common to every shape into one
 //! struct per kind, and serde rejects misplaced fields and enforces the required ones.
 
-use super::error::{InputError, from_json_str, from_json_value, reject_duplicate_keys};
+use crate::io::InputError;
+use crate::io::json::{from_json_str, from_json_value, reject_duplicate_keys};
 use serde::Deserialize;
 use serde_json::Value;
 use std::collections::BTreeMap;

@@ -6,8 +6,8 @@
 //! does not parse, or whose source hash or settings differ, is fitted again and replaced. A
 //! cache that cannot be written costs only a warning.
 
-use super::InputError;
-use crate::material::mixture::file::sha256_hex;
+use crate::io::InputError;
+use crate::io::hash::sha256_hex;
 use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,7 @@
 //! The limits a scene must keep, checked before anything is allocated or computed from the
 //! numbers: sizes that drive an allocation, and magnitudes that single-precision ray tracing
-//! and radiance arithmetic cannot carry. docs/scene-format.md lists them.
+//! and radiance arithmetic cannot carry. docs/scene-format.md lists them; the image's size is
+//! bounded by the render limits of [`crate::io::limits`].
 
 /// Largest wavelength of the domain, nm. Spectra are tabulated in 1-nm cells over the domain
 /// (light and fluorescence sampling tables), so the domain's width sizes allocations.
@@ -38,10 +39,6 @@ pub const MAX_LIGHT_CELLS: f64 = (1u64 << 25) as f64;
 /// Smallest field of view, degrees: below it the film's area at unit distance underflows in f32
 /// and the camera's directional pdf overflows.
 pub const MIN_FOV: f32 = 1e-3;
-
-/// Largest image side and pixel count (the film holds at least 48 bytes per pixel).
-pub const MAX_SIDE: u32 = 16_384;
-pub const MAX_PIXELS: u64 = 1 << 26;
 
 /// Largest optical depth of a medium across its extent (the bounding box of the shapes it
 /// fills, and of its grid): distance tracking takes about that many steps per ray through it,

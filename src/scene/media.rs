@@ -6,12 +6,13 @@
 //! it unchanged; a shape with no material and no emission is an index-matched boundary:
 //! invisible, and not a bounce.
 
-use super::error::{from_json_value, from_tagged_value};
 use super::format::{FluorescenceDesc, MediumDesc, PhaseDesc, ShapeDesc};
 use super::limits::{MAX_COORD, MAX_OPTICAL_DEPTH};
 use super::spectra::SpectrumContext;
-use super::{InputError, NONE, Scene};
+use super::{NONE, Scene};
 use crate::geometry::ray::cross_boundary_ray;
+use crate::io::InputError;
+use crate::io::json::{from_json_value, from_tagged_value};
 use crate::medium::grid::DensityGrid;
 use crate::medium::{Coefficients, Density, Fluorophore, GridDensity, Medium};
 use crate::spectrum::{Spectrum, normalisable};

@@ -3,19 +3,23 @@
 //! in `build.rs`; [`Scene::load`] and [`Scene::from_str`] are the entry points.
 
 mod build;
-pub mod error;
+mod camera;
+mod checks;
 mod format;
 mod gmm;
 pub mod lights;
 pub mod limits;
+mod materials;
 pub mod media;
+mod shape_geometry;
+mod shapes;
 pub mod spectra;
 
-pub use error::InputError;
 pub use lights::{AreaLight, LightPoint, LightSet, LightShape, LightWavelengths};
 pub use media::MediumInterface;
 
 use crate::geometry::{Accel, Camera, Ray, Sphere, Triangle};
+use crate::io::InputError;
 use crate::material::Material;
 use crate::medium::Medium;
 use crate::spectrum::{Domain, Observer};

@@ -1,6 +1,7 @@
 //! Spectrum descriptions in scene files: numbers, names, and typed objects.
 
-use super::error::{InputError, from_tagged_value};
+use crate::io::InputError;
+use crate::io::json::from_tagged_value;
 use crate::spectrum::{Domain, Spectrum};
 use serde::Deserialize;
 use serde_json::Value;

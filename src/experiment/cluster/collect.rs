@@ -381,7 +381,7 @@ impl Collect<'_> {
 
 /// Copy `from` to `to` atomically.
 fn copy(from: &Path, to: &Path) -> Result<(), Error> {
-    crate::film::output::write_atomic(to, |tmp| {
+    crate::io::output::write_atomic(to, |tmp| {
         std::fs::copy(from, tmp).map(drop).map_err(|e| {
             format!(
                 "cannot copy '{}' to '{}': {e}",

@@ -2,7 +2,7 @@
 //! per line), written by `stokes experiment CONFIG --plan` and read back, as untrusted input, by
 //! every job and by the collect step.
 
-use super::super::config::{BudgetMode, Config, MAX_SECONDS, MAX_SPP};
+use super::super::config::{BudgetMode, Config};
 use super::super::record::{
     ModeBudgets, mark_incomplete, mkdir, new_run_dir, timestamp, write_text,
 };
@@ -12,6 +12,7 @@ use super::super::setup::Setup;
 use super::super::sweep::Point;
 use crate::error::Error;
 use crate::integrator::{IntegratorKind, IntegratorOptions};
+use crate::io::limits::{MAX_SECONDS, MAX_SPP};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -122,7 +123,7 @@ pub fn inputs_hash(s: &Setup) -> Result<String, Error> {
             text += &read(&p, crate::io::input::SCENE)?;
         }
     }
-    Ok(crate::film::shard::scene_hash(&text))
+    Ok(crate::io::hash::text_hash(&text))
 }
 
 /// `stokes experiment CONFIG --plan`: check the experiment as a run would, make the run folder
@@ -375,7 +376,7 @@ pub fn read_plan(dir: &Path) -> Result<PlannedRun, Error> {
             dir.display()
         ))
     })?;
-    let plan: Plan = crate::scene::error::from_json_str(&pf, &text)?;
+    let plan: Plan = crate::io::json::from_json_str(&pf, &text)?;
     let bad =
         |field: &str, m: String| Error::input(format!("{}: field `{field}`: {m}", pf.display()));
     if plan.format != FORMAT {
@@ -428,7 +429,7 @@ pub fn read_plan(dir: &Path) -> Result<PlannedRun, Error> {
                 plan.jobs
             )));
         }
-        let job: Job = crate::scene::error::from_json_str(Path::new(&what), line)?;
+        let job: Job = crate::io::json::from_json_str(Path::new(&what), line)?;
         check_job(&job, jobs.len(), &what)?;
         jobs.push(job);
     }

@@ -340,7 +340,7 @@ fn job_name(name: &str) -> String {
 
 /// Write `text` to `path` atomically, executable (0o755).
 fn write_executable(path: &Path, text: &str) -> Result<(), Error> {
-    crate::film::output::write_atomic(path, |tmp| {
+    crate::io::output::write_atomic(path, |tmp| {
         std::fs::write(tmp, text).map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
         #[cfg(unix)]
         {

@@ -1,14 +1,16 @@
 //! Figures from stored results only (`run.json`, `metrics.csv`, the EXRs): convergence plots
 //! (plotters, SVG backend, no system fonts; [`plots`]), and raster figures whose PNG is complete
-//! by itself, text drawn with the font compiled into the binary ([`images`], [`difference`]):
-//! the image grid with false-colour error maps and their colour bar, zoomed crops, the
-//! parameter-grid composite and the signed difference of two images.
+//! by itself ([`images`], [`difference`]): the image grid with false-colour error maps and their
+//! colour bar, zoomed crops, the parameter-grid composite and the signed difference of two
+//! images. Their text is drawn with the font compiled into the binary ([`text`]), as is that of
+//! the Gaussian-mixture box plots' PNGs.
 
 mod colour;
 mod difference;
 mod images;
 mod plots;
 mod sheet;
+pub mod text;
 
 pub use colour::{exposure, luminance};
 pub use difference::difference_of_images;
@@ -18,7 +20,7 @@ use super::config::BudgetMode;
 use super::record::{Row, RunInfo, image_file, read_metrics, read_run_image, safe_relative};
 use super::sweep::SweepRecord;
 use crate::error::Error;
-use crate::film::output::write_atomic;
+use crate::io::output::write_atomic;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 

@@ -7,7 +7,7 @@
 //! caption line and the colour bar band. Text that does not fit its column is set smaller
 //! (down to 9 px) and then shortened with '…'.
 
-use crate::film::text::{draw_text, text_size};
+use super::text::{draw_text, text_size};
 use image::{Rgb, RgbImage};
 
 /// A colour bar: `map` gives the colour at t ∈ [0, 1] (left to right), `ticks` the labelled

@@ -45,7 +45,7 @@ fn read_summary(dir: &Path) -> Result<Vec<Entry>, Error> {
     let p = dir.join("summary.json");
     let text =
         crate::io::input::read_text(&p, crate::io::input::RUN_RECORD).map_err(Error::input)?;
-    Ok(crate::scene::error::from_json_array_str(&p, &text)?)
+    Ok(crate::io::json::from_json_array_str(&p, &text)?)
 }
 
 /// A column: heading, the value of an entry, whether larger is better (`None`: not ranked),

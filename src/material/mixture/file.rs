@@ -12,7 +12,6 @@ use crate::material::reradiation::{
 };
 use crate::spectrum::Domain;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 /// The format tag of version 1.
 pub const FORMAT: &str = "stokes-gmm-1";
@@ -135,19 +134,13 @@ impl Grid {
 impl GmmFile {
     /// Parse and validate a model file; errors name the field and what is wrong.
     pub fn parse(text: &str) -> Result<GmmFile, String> {
-        crate::io::json::json_document(text, "{")?;
-        let mut de = serde_json::Deserializer::from_str(text);
-        let f: GmmFile = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner();
-            if path == "." {
-                inner.to_string()
+        let f: GmmFile = crate::io::json::read_document(text, "{").map_err(|(path, m)| {
+            if path.is_empty() {
+                m
             } else {
-                format!("{path}: {inner}")
+                format!("{path}: {m}")
             }
         })?;
-        de.end()
-            .map_err(|e| format!("{e}: nothing may follow the JSON document but whitespace"))?;
         f.check()?;
         Ok(f)
     }
@@ -334,14 +327,6 @@ impl GmmFile {
         }
         Ok(m)
     }
-}
-
-/// SHA-256 of bytes, hex (the `source.sha256` of a model and the fit cache's key).
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
 }
 
 #[cfg(test)]
