@@ -22,7 +22,7 @@ fn handle_signals() {
     };
     std::thread::spawn(move || {
         if let Some(sig) = signals.forever().next() {
-            stokes::film::output::remove_in_flight();
+            stokes::io::output::remove_in_flight();
             eprintln!("interrupted (signal {sig}): temporary files removed");
             std::process::exit(128 + sig);
         }

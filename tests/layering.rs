@@ -128,7 +128,9 @@ const CRATES: &[(&str, &[&str])] = &[
             "integrator",
             "experiment",
             "gmm::boxplot",
+            "gmm::colour",
             "gmm::evaluate",
+            "gmm::summary",
         ],
     ),
     (
@@ -177,12 +179,24 @@ fn src_files() -> Vec<PathBuf> {
 /// with the contents of string and character literals blanked (their quotes and line breaks
 /// kept), so that no path, brace or `fn` inside them is seen.
 fn code(path: &Path) -> Vec<String> {
+    // a file of a test module (`tests.rs`, or under a `tests/` folder) is test code throughout
+    if path.iter().any(|c| c == "tests" || c == "tests.rs") {
+        return Vec::new();
+    }
     let text = std::fs::read_to_string(path).unwrap();
-    let end = match text.find("\n#[cfg(test)]") {
-        _ if text.starts_with("#[cfg(test)]") => 0,
-        Some(i) => i + 1,
-        None => text.len(),
-    };
+    // the test module: `#[cfg(test)]` on an inline `mod … {` (a `#[cfg(test)]` item or
+    // `mod x;` declaration elsewhere is read on)
+    let mut end = text.len();
+    let mut offset = 0;
+    let mut lines = text.split_inclusive('\n').peekable();
+    while let Some(line) = lines.next() {
+        let next = lines.peek().map_or("", |l| l.trim_end());
+        if line.trim_end() == "#[cfg(test)]" && next.starts_with("mod ") && next.ends_with('{') {
+            end = offset;
+            break;
+        }
+        offset += line.len();
+    }
     let s: Vec<char> = text[..end].chars().collect();
     let blank = |c: char| if c == '\n' { '\n' } else { ' ' };
     let mut out = String::with_capacity(s.len());

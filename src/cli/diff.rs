@@ -24,7 +24,8 @@ pub struct DiffArgs {
 /// `stokes diff`: the signed luminance difference of two EXRs as a figure (red/green diverging,
 /// symmetric scale at the 99th percentile of |difference|; Mojzík 2018 Fig. 11d/f).
 pub fn diff(a: &DiffArgs) -> Result<(), Error> {
-    use crate::film::output::{has_extension, read_exr};
+    use crate::film::output::read_exr;
+    use crate::io::output::has_extension;
     if !has_extension(&a.output, "png") {
         return Err(Error::input(format!(
             "-o/--output '{}': the figure is a PNG, so its name must end in .png",

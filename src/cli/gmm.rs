@@ -60,7 +60,7 @@ fn check_output_file(
     why: &str,
     input: &Path,
 ) -> Result<PathBuf, Error> {
-    if !crate::film::output::has_extension(p, ext) {
+    if !crate::io::output::has_extension(p, ext) {
         return Err(Error::input(format!("{opt} '{}': {why}", show_path(p))));
     }
     let target = check_output(p).map_err(|e| output_error(opt, p, e))?;

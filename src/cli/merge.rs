@@ -24,7 +24,7 @@ pub struct MergeArgs {
 /// `stokes merge`: add the exact sums of shards of one render (same scene, seed, integrator,
 /// options and size; ranges neither overlapping nor leaving gaps) into one EXR.
 pub fn merge(a: &MergeArgs) -> Result<(), Error> {
-    use crate::film::output::has_extension;
+    use crate::io::output::has_extension;
     if !has_extension(&a.output, "exr") {
         return Err(Error::input(format!(
             "-o/--output '{}': the merged image is written as OpenEXR, so its name must end in .exr",

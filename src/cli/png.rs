@@ -22,7 +22,8 @@ pub struct PngArgs {
 
 /// `stokes png`: an sRGB PNG of an EXR (for example a strategy image or `vertices<k>.exr`).
 pub fn png(a: &PngArgs) -> Result<(), Error> {
-    use crate::film::output::{has_extension, read_exr};
+    use crate::film::output::read_exr;
+    use crate::io::output::has_extension;
     if !has_extension(&a.output, "png") {
         return Err(Error::input(format!(
             "-o/--output '{}': the name of the PNG must end in .png",

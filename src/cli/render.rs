@@ -2,12 +2,12 @@
 
 use super::{MAX_EXPOSURE, choice, output_error, parse_sets, print_warnings, sensor_label};
 use crate::Error;
-use crate::experiment::config::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 use crate::film::{write_exr, write_png};
 use crate::integrator::{
     IntegratorKind, IntegratorOptions, LaneWeighting, LightWavelengths, MisHeuristic,
     RenderSettings,
 };
+use crate::io::limits::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 use crate::io::output::{canonical_output, check_output};
 use crate::io::text::show_path;
 use crate::material::WavelengthSampling;
@@ -235,14 +235,14 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
 /// ([`crate::io::output::check_output`]). `--strategy-images` is a folder, created if missing,
 /// in which no strategy image's name is taken by anything but a regular file.
 fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
-    if !crate::film::output::has_extension(&a.output, "exr") {
+    if !crate::io::output::has_extension(&a.output, "exr") {
         return Err(Error::input(format!(
             "-o/--output '{}': the image is written as OpenEXR, so its name must end in .exr (use --png for a PNG preview)",
             a.output.display()
         )));
     }
     if let Some(p) = &a.png
-        && !crate::film::output::has_extension(p, "png")
+        && !crate::io::output::has_extension(p, "png")
     {
         return Err(Error::input(format!(
             "--png '{}': the name of the PNG preview must end in .png",
@@ -250,7 +250,7 @@ fn check_outputs(a: &RenderArgs) -> Result<RenderOutputs, Error> {
         )));
     }
     if let Some(p) = &a.spectral_output
-        && !crate::film::output::has_extension(p, "exr")
+        && !crate::io::output::has_extension(p, "exr")
     {
         return Err(Error::input(format!(
             "--spectral-output '{}': the spectral image is written as OpenEXR, so its name must end in .exr",

@@ -58,8 +58,7 @@ fn one() -> u32 {
     1
 }
 
-// re-export for the CLI until it is split
-pub use crate::io::limits::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
+use crate::io::limits::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 /// Most budgets per kind, variants, and values of a sweep.
 pub const MAX_LIST: usize = 1000;
 /// Most values along each axis of a parameter grid.

@@ -3,9 +3,7 @@
 //! OpenEXR read back through [`crate::io::input`] (a regular file, its size checked from the
 //! header before anything is allocated).
 
-// re-export for the CLI until it is split
 use crate::io::output::write_atomic;
-pub use crate::io::output::{has_extension, remove_in_flight};
 use crate::spectrum::cie::srgb_encode;
 use glam::Vec3;
 use std::path::Path;
