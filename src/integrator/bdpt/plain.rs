@@ -311,10 +311,6 @@ impl<'a> Ends<'a> {
 impl Bdpt {
     /// [`super::evaluate`]'s connection of strategy (s, t) for a plain path (module doc): the
     /// weighted contribution w · f / p (eqs. 6.18, 6.19) in XYZ, drawing the same random numbers.
-    ///
-    /// Out of line, as before the shared core: inlined into `connect` it costs cornell-box's
-    /// bdpt-forward about 7 % more instructions.
-    #[inline(never)]
     pub(super) fn connect_plain(
         &self,
         scene: &Scene,
