@@ -98,23 +98,28 @@ impl Scattering {
         }
     }
 
-    /// [`Scattering::eval`] given also the cosines n·wo and n·wi of the two directions, which
-    /// a lobe that depends on nothing else (the diffuse lobe) uses instead of the directions:
-    /// connections that have the cosines at hand save the dot products.
+    /// [`Scattering::eval`] and [`Scattering::pdf`] at once, given also the cosines n·wo and
+    /// n·wi of the two directions, which a lobe that depends on nothing else (the diffuse lobe)
+    /// uses instead of the directions: connections that have the cosines at hand save the dot
+    /// products.
     #[inline(always)]
-    pub fn eval_with_cosines(&self, (wo, cos_o): (Vec3, f32), (wi, cos_i): (Vec3, f32)) -> f32 {
+    pub fn eval_pdf_with_cosines(
+        &self,
+        (wo, cos_o): (Vec3, f32),
+        (wi, cos_i): (Vec3, f32),
+    ) -> (f32, f32) {
         match *self {
-            Scattering::Diffuse { .. } => diffuse_f(cos_o, cos_i),
-            Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
-        }
-    }
-
-    /// [`Scattering::pdf`] given also the cosines, as [`Scattering::eval_with_cosines`].
-    #[inline(always)]
-    pub fn pdf_with_cosines(&self, (wo, cos_o): (Vec3, f32), (wi, cos_i): (Vec3, f32)) -> f32 {
-        match *self {
-            Scattering::Diffuse { .. } => diffuse_pdf(cos_o, cos_i),
-            Scattering::HenyeyGreenstein { g } => henyey_greenstein(wo.dot(wi), g),
+            Scattering::Diffuse { .. } => {
+                if diffuse_joins(cos_o, cos_i) {
+                    (DIFFUSE_F, diffuse_pdf_joined(cos_i))
+                } else {
+                    (0.0, 0.0)
+                }
+            }
+            Scattering::HenyeyGreenstein { g } => {
+                let p = henyey_greenstein(wo.dot(wi), g);
+                (p, p)
+            }
         }
     }
 

@@ -106,7 +106,7 @@ pub enum End {
     Emitter { light: u32, n: Vec3 },
     /// A scattering vertex: its lobe, the unit direction `wo` to its other neighbour on its own
     /// sub-path and the cosine n·wo. Lobes that depend only on the cosines (the diffuse lobe,
-    /// `Scattering::eval_with_cosines`) reuse the connection's; others take the directions.
+    /// `Scattering::eval_pdf_with_cosines`) reuse the connection's; others take the directions.
     Scatter {
         lobe: Scattering,
         wo: Vec3,
@@ -141,44 +141,71 @@ impl End {
         }
     }
 
-    /// f_dir towards the unit direction `wi` whose cosine is `cos_i` (eq. 6.2): the lobe of a
-    /// scattering end, 1 elsewhere (the pinhole's and the emitter's factors are W_e and L_e).
+    /// The solid-angle pdf that the pinhole or the emitter samples the unit direction `wi`
+    /// (pbrt `Vertex::Pdf`); a lobe's comes with its value in [`End::towards`].
     #[inline(always)]
-    pub fn f(&self, wi: Vec3, cos_i: f32) -> f32 {
-        match self {
-            End::Scatter { lobe, wo, cos_o } => lobe.eval_with_cosines((*wo, *cos_o), (wi, cos_i)),
-            End::Alone => 0.0,
-            _ => 1.0,
-        }
-    }
-
-    /// The solid-angle pdf that this end samples the unit direction `wi` (cosine `cos_i`):
-    /// the pinhole's, the emitter's emission, or the lobe's (pbrt `Vertex::Pdf`).
-    #[inline(always)]
-    pub fn pdf(&self, scene: &Scene, wi: Vec3, cos_i: f32) -> f32 {
+    fn pdf(&self, scene: &Scene, wi: Vec3) -> f32 {
         match self {
             End::Camera => {
                 let pdf = scene.camera.pdf_dir_towards(scene.camera.forward, wi);
                 pdf.unwrap_or(0.0)
             }
             End::Emitter { light, n } => scene.lights.pdf_le_direction(*light as usize, *n, wi),
-            End::Scatter { lobe, wo, cos_o } => lobe.pdf_with_cosines((*wo, *cos_o), (wi, cos_i)),
-            End::Alone => 0.0,
+            End::Scatter { .. } | End::Alone => 0.0,
         }
     }
 }
 
+/// What one end of a connection gives the other: f_dir towards it (1 at the pinhole and at an
+/// emitter, whose factors are W_e and L_e) and the solid-angle pdf of sampling that direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Towards {
+    pub f: f32,
+    pub pdf: f32,
+}
+
+impl End {
+    /// f_dir and the solid-angle pdf towards the unit direction `wi` (cosine `cos_i`), in one
+    /// look at the end and its lobe.
+    #[inline(always)]
+    pub fn towards(&self, scene: &Scene, wi: Vec3, cos_i: f32) -> Towards {
+        let (f, pdf) = match self {
+            End::Scatter { lobe, wo, cos_o } => {
+                lobe.eval_pdf_with_cosines((*wo, *cos_o), (wi, cos_i))
+            }
+            End::Alone => (0.0, 0.0),
+            _ => (1.0, self.pdf(scene, wi)),
+        };
+        Towards { f, pdf }
+    }
+}
+
 impl Connection {
+    /// The ends' values towards each other: `a`'s (x(s−1)) along w, `b`'s (x_s) along −w, whose
+    /// cosine is −(n·w) exactly.
+    #[inline(always)]
+    pub fn ends(&self, scene: &Scene, a: &End, b: &End) -> (Towards, Towards) {
+        let w = self.seg.w;
+        let ta = a.towards(scene, w, self.cos_a);
+        let tb = b.towards(scene, -w, -self.cos_b);
+        (ta, tb)
+    }
+
+    /// The area pdfs of x_s sampled from x(s−1) and of x(s−1) sampled from x_s, from the two
+    /// ends' solid-angle pdfs towards each other (`Vertex::area_pdf`).
+    #[inline(always)]
+    pub fn area_pdfs(&self, pdf_a: f32, pdf_b: f32) -> (f32, f32) {
+        let d2 = self.seg.d2;
+        (pdf_a * self.abs_b / d2, pdf_b * self.abs_a / d2)
+    }
+
     /// The two area pdfs this connection changes (eq. 6.3, pbrt `Vertex::Pdf`): of x_s sampled
     /// from x(s−1) (`a`, towards the camera) and of x(s−1) sampled from x_s (`b`), each the
     /// end's solid-angle pdf turned into an area pdf at the other end.
     #[inline(always)]
     pub fn pdfs(&self, scene: &Scene, a: &End, b: &End) -> (f32, f32) {
-        let (w, d2) = (self.seg.w, self.seg.d2);
-        let fwd = a.pdf(scene, w, self.cos_a) * self.abs_b / d2;
-        // the direction back is −w, whose cosine is −(n·w) exactly
-        let rev = b.pdf(scene, -w, -self.cos_b) * self.abs_a / d2;
-        (fwd, rev)
+        let (ta, tb) = self.ends(scene, a, b);
+        self.area_pdfs(ta.pdf, tb.pdf)
     }
 }
 

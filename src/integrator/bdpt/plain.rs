@@ -399,12 +399,13 @@ impl Bdpt {
     }
 }
 
-/// A connection of a strategy with t ≥ 1 and its ends, which its pdfs reuse.
+/// A connection of a strategy with t ≥ 1 and its ends' solid-angle pdfs towards each other,
+/// which its changed pdfs reuse.
 #[derive(Clone, Copy)]
 struct Conn {
     c: Connection,
-    a: End,
-    b: End,
+    pdf_a: f32,
+    pdf_b: f32,
 }
 
 /// The measurement f of the connection at λ* = `lambda` (eq. 6.2): C(s) · [x(s−1), x_s] ·
@@ -448,7 +449,8 @@ fn measurement(
     } else {
         End::of::<_, Lambdas>(scene, b, None)
     };
-    let (f_a, f_b) = (end_a.f(w, c.cos_a), end_b.f(-w, -c.cos_b));
+    let (ta, tb) = c.ends(scene, &end_a, &end_b);
+    let (f_a, f_b) = (ta.f, tb.f);
     if f_a == 0.0 || f_b == 0.0 {
         return None;
     }
@@ -474,8 +476,8 @@ fn measurement(
     let f = cam_part * light_part;
     let conn = Conn {
         c,
-        a: end_a,
-        b: end_b,
+        pdf_a: ta.pdf,
+        pdf_b: tb.pdf,
     };
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
@@ -485,7 +487,7 @@ fn measurement(
 #[inline(always)]
 fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
     let s = ends.s;
-    let Some(Conn { c, a, b }) = conn else {
+    let Some(Conn { c, pdf_a, pdf_b }) = conn else {
         // t = 0: the light point and emission pdfs at the emitter x(s−1)
         let e = ends.a;
         let rev = [
@@ -494,7 +496,7 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
         ];
         return Changed { fwd_s: 0.0, rev };
     };
-    let (fwd, rev) = c.pdfs(scene, &a, &b);
+    let (fwd, rev) = c.area_pdfs(pdf_a, pdf_b);
     Changed {
         fwd_s: fwd as f64,
         rev: [(s - 1, rev as f64), (usize::MAX, 0.0)],
