@@ -422,7 +422,7 @@ impl BdptAllbins {
         let scal = yv.data.beta * fy * camera_term(scene, wdir, dist2, &yv) as f32;
         if !scene.has_media {
             let c = dot3_on(&self.w, &sc.lig.buf[(s - 1) * n..s * n], on) * scal;
-            if c == Vec3::ZERO || Connection::shadow(scene, &zc, &yv, true, rays).is_zero() {
+            if c == Vec3::ZERO || Connection::transmittance(scene, &zc, &yv, true, rays).is_zero() {
                 return None;
             }
             return Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc), None)));
@@ -501,7 +501,7 @@ impl BdptAllbins {
         };
         if !scene.has_media {
             let c = dot3_on(q, ys, on) * scal;
-            if c == Vec3::ZERO || Connection::shadow(scene, &z, &yv, false, rays).is_zero() {
+            if c == Vec3::ZERO || Connection::transmittance(scene, &z, &yv, false, rays).is_zero() {
                 return None;
             }
             return Some(c * self.weight(scene, sc, s, t, sampled, None));
