@@ -76,8 +76,13 @@ impl Connection {
 
     /// The transmittance of x(s−1) → x_s in a scene without media: shadow rays start on the
     /// surface side, so light tracing's (`camera_end`: `a` is the pinhole) starts at `b`.
-    #[inline(always)]
-    pub fn transmittance<P, Q>(
+    ///
+    /// Out of line: one copy of the inlined shadow ray instead of one in every connection of
+    /// bdpt-forward and bdpt-backward, whose registers are already short (bdpt-forward on
+    /// cornell-box 1.04× faster); bdpt-allbins' connections, which keep their spectra in
+    /// buffers, call `transport::transmittance` inline.
+    #[inline(never)]
+    pub fn shadow<P, Q>(
         scene: &Scene,
         a: &Vertex<P>,
         b: &Vertex<Q>,
@@ -90,21 +95,6 @@ impl Connection {
         } else {
             transmittance(scene, a, b, rays)
         }
-    }
-
-    /// [`Connection::transmittance`] out of line: one copy of the inlined shadow ray instead of
-    /// one in every connection of bdpt-forward and bdpt-backward, whose registers are already
-    /// short (bdpt-forward on cornell-box 1.04× faster); bdpt-allbins' connections, which keep
-    /// their spectra in buffers, inline it.
-    #[inline(never)]
-    pub fn shadow<P, Q>(
-        scene: &Scene,
-        a: &Vertex<P>,
-        b: &Vertex<Q>,
-        camera_end: bool,
-        rays: &mut u64,
-    ) -> Transmittance {
-        Self::transmittance(scene, a, b, camera_end, rays)
     }
 }
 

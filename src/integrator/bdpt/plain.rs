@@ -20,10 +20,10 @@
 
 use super::cache::{SpectralCache, SubpathCache};
 use super::connection::{
-    Connection, Contribution, End, camera_term, splat_position, weighted, xyz_weight,
+    Connection, Contribution, camera_term, splat_position, weighted, xyz_weight,
 };
 use super::mis::ResetMode;
-use super::subpath::{Lambdas, Vertex};
+use super::subpath::Vertex;
 use super::wavelength::{LambdaKey, light_wavelength};
 use super::weight::mis_walk;
 use super::{Bdpt, Scratch};
@@ -399,13 +399,22 @@ impl Bdpt {
     }
 }
 
-/// A connection of a strategy with t ≥ 1 and its ends' solid-angle pdfs towards each other,
-/// which its changed pdfs reuse.
+/// A connection of a strategy with t ≥ 1 and the solid-angle pdfs of its scattering ends
+/// towards each other (x(s−1) for s ≥ 2, x_s for t ≥ 2), which its changed pdfs reuse.
 #[derive(Clone, Copy)]
 struct Conn {
     c: Connection,
-    pdf_a: f32,
-    pdf_b: f32,
+    pdf_a: Option<f32>,
+    pdf_b: Option<f32>,
+}
+
+/// f_dir and the solid-angle pdf of the lobe at scattering end `x` towards `wi` (cosine
+/// `cos_i`), whose other neighbour on its sub-path lies in the unit direction `wo`
+/// (`Scattering::eval_pdf_with_cosines`).
+#[inline(always)]
+fn lobe(scene: &Scene, x: &Vertex, wo: Vec3, (wi, cos_i): (Vec3, f32)) -> (f32, f32) {
+    let lobe = x.scattering(scene);
+    lobe.eval_pdf_with_cosines((wo, x.n.dot(wo)), (wi, cos_i))
 }
 
 /// The measurement f of the connection at λ* = `lambda` (eq. 6.2): C(s) · [x(s−1), x_s] ·
@@ -435,22 +444,18 @@ fn measurement(
     let (a, b) = (ends.a, ends.b);
     let c = Connection::new(a, b);
     let w = c.seg.w;
-    // the two ends, with the sub-paths' cached directions to their other neighbours, and f_dir
-    // at each (`Scattering::eval`, from the cosines where it can)
-    let end_a = if s >= 2 {
+    // f_dir and the pdf of the lobes at the scattering ends, with the sub-paths' cached
+    // directions to their other neighbours (the pinhole's and the emitter's factors are W_e and
+    // L_e, their pdfs come in `changed_pdfs`)
+    let end_a = (s >= 2).then(|| {
         cam_cache.camera(scene, cam);
-        End::scatter(scene, a, -cam_cache.seg(s - 2).w)
-    } else {
-        End::Camera
-    };
-    let end_b = if t >= 2 {
+        lobe(scene, a, -cam_cache.seg(s - 2).w, (w, c.cos_a))
+    });
+    let end_b = (t >= 2).then(|| {
         light_cache.light(scene, light);
-        End::scatter(scene, b, light_cache.seg(t - 1).w)
-    } else {
-        End::of::<_, Lambdas>(scene, b, None)
-    };
-    let (ta, tb) = c.ends(scene, &end_a, &end_b);
-    let (f_a, f_b) = (ta.f, tb.f);
+        lobe(scene, b, light_cache.seg(t - 1).w, (-w, -c.cos_b))
+    });
+    let (f_a, f_b) = (end_a.map_or(1.0, |e| e.0), end_b.map_or(1.0, |e| e.0));
     if f_a == 0.0 || f_b == 0.0 {
         return None;
     }
@@ -476,8 +481,8 @@ fn measurement(
     let f = cam_part * light_part;
     let conn = Conn {
         c,
-        pdf_a: ta.pdf,
-        pdf_b: tb.pdf,
+        pdf_a: end_a.map(|e| e.1),
+        pdf_b: end_b.map(|e| e.1),
     };
     (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
 }
@@ -496,6 +501,10 @@ fn changed_pdfs(scene: &Scene, ends: &Ends, conn: Option<Conn>) -> Changed {
         ];
         return Changed { fwd_s: 0.0, rev };
     };
+    // the pinhole's and the emitter's own directional pdfs where the end does not scatter
+    let (a, b, w) = (ends.a, ends.b, c.seg.w);
+    let pdf_a = pdf_a.unwrap_or_else(|| scene.camera.pdf_dir_towards(a.n, w).unwrap_or(0.0));
+    let pdf_b = pdf_b.unwrap_or_else(|| scene.lights.pdf_le_direction(b.light as usize, b.n, -w));
     let (fwd, rev) = c.area_pdfs(pdf_a, pdf_b);
     Changed {
         fwd_s: fwd as f64,

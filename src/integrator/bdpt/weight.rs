@@ -14,6 +14,8 @@
 //!
 //! Every pdf the walk divides by is a factor of the strategy's own pdf, which the caller has
 //! checked to be positive, so a strategy that cannot make the path (a zero pdf) gets ratio 0.
+//! The running ratios are kept below f64::MAX, so that a zero after an overflow still ends a
+//! sum (a test per vertex would cost more).
 
 use crate::integrator::MisHeuristic;
 
@@ -54,20 +56,15 @@ fn walk<const POWER: bool>(
     for (m, (fwd, rev)) in (1..).zip(lower) {
         // p(ŝ)/p(s) for ŝ = 1 … m: each gains the factor pa_rev/pa_fwd of x_m, and ŝ = m joins
         area *= fwd;
-        let q = power(rev / fwd);
-        // a zero ratio ends the sum below even where it overflowed (∞ · 0)
-        down = if q == 0.0 {
-            0.0
-        } else {
-            q * (down + power(lambda(m)))
-        };
+        // kept finite, so that a zero ratio ends the sum below even where it overflowed (∞ · 0
+        // would be NaN); a NaN ratio (a degenerate pdf) counts as overwhelming: weight 0
+        down = (power(rev / fwd) * (down + power(lambda(m)))).min(f64::MAX);
     }
     let (mut up, mut run) = (0.0, 1.0);
     for (m, (fwd, rev)) in (s..).zip(upper) {
         // p(m + 1)/p(s) = p(m)/p(s) · pa_fwd[m] / pa_rev[m]
         area *= rev;
-        let r = power(fwd / rev);
-        run = if r == 0.0 { 0.0 } else { run * r };
+        run = (run * power(fwd / rev)).min(f64::MAX);
         up += run * power(lambda(m + 1));
     }
     (area, 1.0 / (1.0 + down + up))

@@ -24,7 +24,7 @@ use crate::medium::Medium;
 use crate::scene::{NONE, Scene};
 use crate::spectrum::BinGrid;
 use crate::transport::segment::{self, grey_distance_pdf};
-use crate::transport::{self, Segment, Stretch, VertexKind};
+use crate::transport::{self, Segment, Stretch, VertexKind, transmittance};
 use binops::SupportedOp;
 use evaluate::{Support, dot3_on, f_dir};
 use glam::Vec3;
@@ -422,7 +422,8 @@ impl BdptAllbins {
         let scal = yv.data.beta * fy * camera_term(scene, wdir, dist2, &yv) as f32;
         if !scene.has_media {
             let c = dot3_on(&self.w, &sc.lig.buf[(s - 1) * n..s * n], on) * scal;
-            if c == Vec3::ZERO || Connection::transmittance(scene, &zc, &yv, true, rays).is_zero() {
+            if c == Vec3::ZERO || transmittance(scene, yv.endpoint(), zc.endpoint(), rays).is_zero()
+            {
                 return None;
             }
             return Some((px, py, c * self.weight(scene, sc, s, 1, Some(&zc), None)));
@@ -501,7 +502,8 @@ impl BdptAllbins {
         };
         if !scene.has_media {
             let c = dot3_on(q, ys, on) * scal;
-            if c == Vec3::ZERO || Connection::transmittance(scene, &z, &yv, false, rays).is_zero() {
+            if c == Vec3::ZERO || transmittance(scene, z.endpoint(), yv.endpoint(), rays).is_zero()
+            {
                 return None;
             }
             return Some(c * self.weight(scene, sc, s, t, sampled, None));
