@@ -13,6 +13,7 @@ use crate::geometry::Ray;
 use crate::geometry::ray::{cross_boundary_ray, spawn_ray};
 use crate::integrator::Sampler;
 use crate::medium::Medium;
+use crate::scene::lights::Emission;
 use crate::scene::{NONE, Scene};
 use crate::transport::media::MAX_CROSSINGS;
 use crate::transport::segment::{Segment, Stretch, distance_to_surface, surface_media, towards};
@@ -112,6 +113,24 @@ pub struct Start {
     pub ray: Ray,
     pub pdf_dir: f32,
     pub medium: u32,
+}
+
+impl Start {
+    /// A light sub-path's start: the emission direction sampled at the light origin `y0`
+    /// (sampler: two values), and the emission sample (its weight L_e·cos / pdf_dir).
+    #[inline]
+    pub fn emission<P>(scene: &Scene, y0: &Vertex<P>, sampler: &mut Sampler) -> (Start, Emission) {
+        let light = y0.light as usize;
+        let e = scene
+            .lights
+            .sample_le_direction(light, y0.n, sampler.next2());
+        let start = Start {
+            ray: spawn_ray(y0.p, y0.n, e.w),
+            pdf_dir: e.pdf_dir,
+            medium: towards(scene.light_media(light), y0.n, e.w),
+        };
+        (start, e)
+    }
 }
 
 /// What a walk fills: the sub-path's vertices (holding at least its first) up to

@@ -7,12 +7,10 @@ use super::cache::SpectralCache;
 use super::geometric::{self, SegmentLog, Start, Step, Trace, Walker};
 use super::wavelength::light_wavelength;
 use crate::geometry::Ray;
-use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Sampler, Stats};
 use crate::material::{Bbrrdf, PathSide, ShiftSampling};
 use crate::medium::{Medium, Tracking};
 use crate::scene::{LightWavelengths, Scene};
-use crate::transport::segment::towards;
 use crate::transport::spectral::with_spectrum;
 use crate::transport::{self, Segment, Travel, travel};
 
@@ -267,14 +265,7 @@ pub fn light_subpath(
     if max_vertices == 1 || (how.stop_on_zero && beta <= 0.0) {
         return;
     }
-    let e = scene
-        .lights
-        .sample_le_direction(light, v0.n, sampler.next2());
-    let start = Start {
-        ray: spawn_ray(v0.p, v0.n, e.w),
-        pdf_dir: e.pdf_dir,
-        medium: towards(scene.light_media(light), v0.n, e.w),
-    };
+    let (start, _) = Start::emission(scene, &v0, sampler);
     bufs.walk::<true>(scene, start, max_vertices, (sampler, stats), how, beta);
 }
 

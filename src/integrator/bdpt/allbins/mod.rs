@@ -17,7 +17,6 @@ use super::connection::{Connection, camera_term, splat};
 use super::geometric::{SegmentLog, Start, Step, Trace, Walker, random_walk};
 use super::{Depth, strategy_images, strategy_layer};
 use crate::geometry::Ray;
-use crate::geometry::ray::spawn_ray;
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, SampleSink, Sampler};
 use crate::material::Bbrrdf;
 use crate::medium::Medium;
@@ -297,14 +296,7 @@ impl BdptAllbins {
         }
         let y0 = sample_light_vertex(scene, sampler);
         let emitter = y0.light as usize;
-        let e = scene
-            .lights
-            .sample_le_direction(emitter, y0.n, sampler.next2());
-        let start = Start {
-            ray: spawn_ray(y0.p, y0.n, e.w),
-            pdf_dir: e.pdf_dir,
-            medium: segment::towards(scene.light_media(emitter), y0.n, e.w),
-        };
+        let (start, e) = Start::emission(scene, &y0, sampler);
         // Le·cos/(pdf_pos·pdf_dir); the spectral Le is in `spec`.
         let beta_out = e.weight / y0.pdf_fwd;
         lig.buf[..n].copy_from_slice(&self.le[emitter]);
