@@ -8,7 +8,7 @@ use stokes::integrator::bdpt::{Bdpt, ResetMode};
 use stokes::integrator::render::run;
 use stokes::integrator::{
     Integrator, IntegratorKind, IntegratorOptions, LightWavelengths, MisHeuristic, RenderSettings,
-    Stats, render,
+    ResetChoice, Stats, render,
 };
 use stokes::material::{Bbrrdf, Material};
 use stokes::scene::Scene;
@@ -34,11 +34,21 @@ fn mean_xyz(xyz: &[Vec3]) -> Vec3 {
     xyz.iter().copied().sum::<Vec3>() / xyz.len() as f32
 }
 
+/// bdpt-forward, bdpt-backward and bdpt-combined with each reset choice.
+fn bdpt_variants() -> Vec<(IntegratorKind, ResetChoice)> {
+    let mut v: Vec<_> = MODES.iter().map(|m| (m.0, ResetChoice::Both)).collect();
+    for choice in ResetChoice::ALL {
+        v.push((IntegratorKind::BdptCombined, choice));
+    }
+    v
+}
+
 fn furnace_check(scene: &Scene, want: Vec3, max_depth: u32, spp: u32) {
-    for (kind, _) in MODES {
+    for (kind, choice) in bdpt_variants() {
         let opts = IntegratorOptions {
             max_depth,
             camera_wavelengths: CameraWavelengths::Cmf,
+            reset_choice: choice,
             ..Default::default()
         };
         let settings = RenderSettings {
@@ -53,8 +63,9 @@ fn furnace_check(scene: &Scene, want: Vec3, max_depth: u32, spp: u32) {
         for c in 0..3 {
             assert!(
                 (m[c] - want[c]).abs() < 0.01 * want[c],
-                "{} channel {c}: {} vs {}",
+                "{} {} channel {c}: {} vs {}",
                 kind.name(),
+                choice.name(),
                 m[c],
                 want[c]
             );
@@ -157,7 +168,7 @@ fn assert_agree(what: &str, a: &[Vec3], b: &[Vec3], k: f32) {
     }
 }
 
-/// bdpt-forward, bdpt-backward and pt-mono agree per region (floor, walls, ceiling, back).
+/// bdpt-forward, bdpt-backward, bdpt-combined and pt-mono agree per region (floor, walls, ceiling, back).
 fn agree_with_pt_mono(name: &str, spp_bdpt: u32, spp_pt: u32) {
     let mut scene = load(name);
     small_camera(&mut scene, 32, 32);
@@ -200,6 +211,12 @@ fn agree_with_pt_mono(name: &str, spp_bdpt: u32, spp_pt: u32) {
         &scene,
         &r(IntegratorKind::BdptBackward, spp_bdpt),
         &regions,
+        seeds.clone(),
+    );
+    let cb = region_means(
+        &scene,
+        &r(IntegratorKind::BdptCombined, spp_bdpt),
+        &regions,
         seeds,
     );
     for (i, (reg, _)) in regions.iter().enumerate() {
@@ -219,6 +236,12 @@ fn agree_with_pt_mono(name: &str, spp_bdpt: u32, spp_pt: u32) {
             &format!("{name} {reg} forward/backward"),
             &fw[i],
             &bw[i],
+            4.5,
+        );
+        assert_agree(
+            &format!("{name} {reg} combined/pt-mono"),
+            &cb[i],
+            &pt[i],
             4.5,
         );
     }
@@ -320,6 +343,7 @@ fn stiff_fluorescent_walls_stay_finite() {
     for kind in [
         IntegratorKind::BdptForward,
         IntegratorKind::BdptBackward,
+        IntegratorKind::BdptCombined,
         IntegratorKind::PtMono,
     ] {
         for ws in [

@@ -46,7 +46,11 @@ fn no_strategy_pdf_is_dropped_on_the_shipped_scenes() {
                 max_depth,
                 ..Default::default()
             };
-            for kind in [IntegratorKind::BdptForward, IntegratorKind::BdptBackward] {
+            for kind in [
+                IntegratorKind::BdptForward,
+                IntegratorKind::BdptBackward,
+                IntegratorKind::BdptCombined,
+            ] {
                 if let Err(e) = check(&scene, kind, &opts) {
                     eprintln!("{name}: {} refuses the scene ({e})", kind.name());
                     continue;

@@ -32,9 +32,10 @@ use stokes::spectrum::xyz_to_linear_srgb;
 
 /// The bidirectional integrators under test. bdpt-allbins is listed here and skipped by [`bdpts`]
 /// while it refuses scenes with media.
-const BDPTS: [IntegratorKind; 3] = [
+const BDPTS: [IntegratorKind; 4] = [
     IntegratorKind::BdptForward,
     IntegratorKind::BdptBackward,
+    IntegratorKind::BdptCombined,
     IntegratorKind::BdptAllbins,
 ];
 
@@ -267,6 +268,10 @@ fn render_single(
         IntegratorKind::BdptForward | IntegratorKind::BdptBackward => {
             let mode = MODES.iter().find(|m| m.0 == kind).unwrap().1;
             let b = Bdpt::new(scene, opts, mode).unwrap().single_strategy(s, t);
+            run(scene, &b, settings, None)
+        }
+        IntegratorKind::BdptCombined => {
+            let b = Bdpt::combined(scene, opts).unwrap().single_strategy(s, t);
             run(scene, &b, settings, None)
         }
         IntegratorKind::BdptAllbins => {

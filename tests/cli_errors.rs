@@ -329,6 +329,22 @@ fn bad_command_line_values() {
     assert_eq!(run(&[s, "--max-depth", "0", "-o", o]).0, 2);
     assert_eq!(run(&[s, "--time-limit", "-1", "-o", o]).0, 2);
     assert_eq!(run(&[s, "--integrator", "nope", "-o", o]).0, 2);
+    assert_eq!(run(&[s, "--reset-choice", "nope", "-o", o]).0, 2);
+    // a reset choice is bdpt-combined's: elsewhere it is an error, not ignored
+    let (code, err) = run(&[
+        s,
+        "--integrator",
+        "bdpt-forward",
+        "--reset-choice",
+        "random",
+        "-o",
+        o,
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("reset_choice") && err.contains("bdpt-combined"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -345,6 +345,7 @@ fn quick_walls_integrators_end_to_end() {
             "pt-hero",
             "bdpt-forward",
             "bdpt-backward",
+            "bdpt-combined",
             "bdpt-allbins",
         ],
         &["all", "floor", "left", "ceiling", "right", "back"],

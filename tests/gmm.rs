@@ -224,6 +224,11 @@ fn bdpt_backward_renders_the_mixture_like_its_dense_matrix() {
 }
 
 #[test]
+fn bdpt_combined_renders_the_mixture_like_its_dense_matrix() {
+    gmm_agrees_with_its_dense_matrix(IntegratorKind::BdptCombined, 24);
+}
+
+#[test]
 fn bdpt_allbins_renders_the_mixture_like_its_dense_matrix() {
     gmm_agrees_with_its_dense_matrix(IntegratorKind::BdptAllbins, 48);
 }

@@ -119,11 +119,12 @@ fn mean_y(scene: &Scene, kind: IntegratorKind, spp: u32) -> f64 {
     xyz.iter().map(|p| p.y as f64).sum::<f64>() / xyz.len() as f64
 }
 
-const ALL: [IntegratorKind; 5] = [
+const ALL: [IntegratorKind; 6] = [
     IntegratorKind::PtMono,
     IntegratorKind::PtHero,
     IntegratorKind::BdptForward,
     IntegratorKind::BdptBackward,
+    IntegratorKind::BdptCombined,
     IntegratorKind::BdptAllbins,
 ];
 

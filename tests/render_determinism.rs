@@ -51,6 +51,7 @@ fn every_integrator_is_deterministic_whatever_the_thread_count() {
         IntegratorKind::PtHero,
         IntegratorKind::BdptForward,
         IntegratorKind::BdptBackward,
+        IntegratorKind::BdptCombined,
         IntegratorKind::BdptAllbins,
     ];
     for path in ["scenes/fluorescent-walls.json", "scenes/media-cube.json"] {

@@ -42,6 +42,7 @@ fn four_shards_of_sixteen_merge_into_sixty_four() {
         IntegratorKind::PtHero,
         IntegratorKind::BdptForward,
         IntegratorKind::BdptBackward,
+        IntegratorKind::BdptCombined,
         IntegratorKind::BdptAllbins,
     ] {
         let whole = render(&scene, kind, &opts, &settings(0, 64), None).unwrap();

@@ -55,11 +55,12 @@ fn mean_se(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (m, (var / n).sqrt())
 }
 
-const SPECTRAL: [IntegratorKind; 4] = [
+const SPECTRAL: [IntegratorKind; 5] = [
     IntegratorKind::PtMono,
     IntegratorKind::PtHero,
     IntegratorKind::BdptForward,
     IntegratorKind::BdptBackward,
+    IntegratorKind::BdptCombined,
 ];
 
 /// Every bin of the spectral image (10 nm bins over the camera's 360–780 nm, aligned with the

@@ -31,11 +31,12 @@ use stokes::spectrum::BinGrid;
 /// A 5σ band: a false alarm in about 1 of 1.7 million checks of a Gaussian mean.
 const K_SIGMA: f64 = 5.0;
 
-const KINDS: [IntegratorKind; 5] = [
+const KINDS: [IntegratorKind; 6] = [
     IntegratorKind::PtMono,
     IntegratorKind::PtHero,
     IntegratorKind::BdptForward,
     IntegratorKind::BdptBackward,
+    IntegratorKind::BdptCombined,
     IntegratorKind::BdptAllbins,
 ];
 
@@ -274,8 +275,16 @@ fn spp_of(kind: IntegratorKind, depth: u32) -> u32 {
 /// are for (the 1-nm band: +64 % for bdpt-allbins on uniform 5-nm bins).
 fn max_sigma(kind: IntegratorKind, depth: u32) -> f64 {
     match kind {
-        IntegratorKind::BdptForward | IntegratorKind::BdptBackward if depth > 8 => 0.06,
-        IntegratorKind::BdptForward | IntegratorKind::BdptBackward => 0.025,
+        IntegratorKind::BdptForward
+        | IntegratorKind::BdptBackward
+        | IntegratorKind::BdptCombined
+            if depth > 8 =>
+        {
+            0.06
+        }
+        IntegratorKind::BdptForward
+        | IntegratorKind::BdptBackward
+        | IntegratorKind::BdptCombined => 0.025,
         _ => 0.015,
     }
 }

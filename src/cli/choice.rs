@@ -1,6 +1,8 @@
 //! One value parser for the core's enums of named choices, with clap's possible values and errors.
 
-use crate::integrator::{IntegratorKind, LaneWeighting, LightWavelengths, MisHeuristic};
+use crate::integrator::{
+    IntegratorKind, LaneWeighting, LightWavelengths, MisHeuristic, ResetChoice,
+};
 use crate::material::WavelengthSampling;
 use crate::material::mixture::FitMethod;
 use crate::medium::Tracking;
@@ -44,6 +46,7 @@ choices!(
     LaneWeighting,
     LightWavelengths,
     MisHeuristic,
+    ResetChoice,
     Tracking,
     WavelengthSampling,
 );

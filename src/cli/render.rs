@@ -5,7 +5,7 @@ use crate::Error;
 use crate::film::{write_exr, write_png};
 use crate::integrator::{
     IntegratorKind, IntegratorOptions, LaneWeighting, LightWavelengths, MisHeuristic,
-    RenderSettings,
+    RenderSettings, ResetChoice,
 };
 use crate::io::limits::{MAX_SECONDS, MAX_SPP, MAX_THREADS};
 use crate::io::output::{canonical_output, check_output};
@@ -108,6 +108,14 @@ pub struct RenderArgs {
         default_value = IntegratorOptions::default().lane_weighting.name()
     )]
     pub lane_weighting: LaneWeighting,
+    /// bdpt-combined: evaluate both wavelength resets at every connection, or one chosen at
+    /// random with probability 1/2 (one-sample MIS; about one reset's cost).
+    #[arg(
+        long,
+        value_parser = choice::<ResetChoice>(),
+        default_value = IntegratorOptions::default().reset_choice.name()
+    )]
+    pub reset_choice: ResetChoice,
     /// Russian roulette from this many segments on (uni-directional tracers); off by default.
     #[arg(long)]
     pub rr_depth: Option<u32>,
@@ -156,6 +164,7 @@ impl RenderArgs {
             tracking: self.tracking,
             lane_weighting: self.lane_weighting,
             strategy_images: self.strategy_images.is_some(),
+            reset_choice: self.reset_choice,
         }
     }
 }
@@ -222,7 +231,7 @@ pub fn render_cmd_validate(a: &RenderArgs) -> Result<RenderOutputs, Error> {
         )));
     }
     a.options()
-        .validate()
+        .validate_for(a.integrator)
         .map_err(|m| Error::input(format!("option {m}")))?;
     parse_sets(&a.set)?;
     check_outputs(a)

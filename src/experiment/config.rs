@@ -356,7 +356,7 @@ impl Config {
                 ));
             }
             v.options
-                .validate()
+                .validate_for(v.integrator)
                 .map_err(|m| err(file, &format!("variants[{i}].options"), m))?;
             if let Some(p) = &v.scene {
                 let field = format!("variants[{i}].scene");
@@ -424,7 +424,7 @@ impl Config {
                     ));
                 }
             }
-            (None, Some(_), Some(spp)) => {
+            (None, Some(kind), Some(spp)) => {
                 if spp == 0 || spp > MAX_SPP {
                     return Err(err(
                         file,
@@ -433,7 +433,7 @@ impl Config {
                     ));
                 }
                 r.options
-                    .validate()
+                    .validate_for(kind)
                     .map_err(|m| err(file, "reference.options", m))?;
             }
             (None, None, _) => {

@@ -75,6 +75,7 @@ impl Camera {
 
     /// The film position in pixels at which direction `d` from the pinhole lands, and cos θ to
     /// the axis; `None` if `d` is outside the image.
+    #[inline(always)]
     pub fn project(&self, d: Vec3) -> Option<(f32, f32, f32)> {
         let cos = d.dot(self.forward);
         if cos <= 0.0 {

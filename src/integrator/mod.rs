@@ -32,6 +32,8 @@ named_enum! {
         BdptForward = "bdpt-forward",
         /// Bidirectional path tracer with the backward wavelength reset (Jung 6.3.1.2).
         BdptBackward = "bdpt-backward",
+        /// Bidirectional path tracer with both wavelength resets combined by MIS (docs/bdpt.md).
+        BdptCombined = "bdpt-combined",
         /// Geometric BDPT evaluated for every wavelength bin (Jung 6.5).
         BdptAllbins = "bdpt-allbins",
     }
@@ -53,7 +55,7 @@ impl IntegratorKind {
     }
 
     /// Every integrator ([`IntegratorKind::ALL`]).
-    pub fn all() -> [IntegratorKind; 5] {
+    pub fn all() -> [IntegratorKind; 6] {
         Self::ALL
     }
 }
@@ -95,6 +97,28 @@ impl MisHeuristic {
 }
 
 named_enum! {
+    /// Which wavelength resets bdpt-combined evaluates at each connection (docs/bdpt.md).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+    pub enum ResetChoice {
+        /// Both: the forward and the backward reset, each weighted among all 2k techniques.
+        #[default]
+        Both = "both",
+        /// One, forward or backward with probability 1/2, weighted by the same combined pdfs.
+        Random = "random",
+        /// One for the whole sample, forward or backward with probability 1/2; the sub-path whose
+        /// wavelengths that reset keeps may then end at zero throughput, as in bdpt-forward or
+        /// bdpt-backward.
+        Sample = "sample",
+    }
+}
+
+impl ResetChoice {
+    fn is_default(&self) -> bool {
+        *self == ResetChoice::default()
+    }
+}
+
+named_enum! {
     /// How pt-hero weights its lanes in media, where each lane's distance pdf differs.
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
     pub enum LaneWeighting {
@@ -131,6 +155,10 @@ pub struct IntegratorOptions {
     pub lane_weighting: LaneWeighting,
     /// Accumulate one image per BDPT strategy (s, t).
     pub strategy_images: bool,
+    /// The resets bdpt-combined evaluates per connection (left out of the JSON when "both", so
+    /// the options of the other integrators read as before).
+    #[serde(skip_serializing_if = "ResetChoice::is_default")]
+    pub reset_choice: ResetChoice,
 }
 
 impl Default for IntegratorOptions {
@@ -147,11 +175,25 @@ impl Default for IntegratorOptions {
             tracking: Tracking::Aware,
             lane_weighting: LaneWeighting::Balance,
             strategy_images: false,
+            reset_choice: ResetChoice::Both,
         }
     }
 }
 
 impl IntegratorOptions {
+    /// Check the options that only one integrator reads against the integrator `kind`: a
+    /// reset choice other than "both" means bdpt-combined.
+    pub fn validate_for(&self, kind: IntegratorKind) -> Result<(), String> {
+        if kind != IntegratorKind::BdptCombined && !self.reset_choice.is_default() {
+            return Err(format!(
+                "reset_choice {:?} applies only to bdpt-combined, not to {}",
+                self.reset_choice.name(),
+                kind.name()
+            ));
+        }
+        self.validate()
+    }
+
     /// Check values that serde cannot; the message names the option.
     pub fn validate(&self) -> Result<(), String> {
         if self.max_depth == 0 || self.max_depth > 1024 {

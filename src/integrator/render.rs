@@ -78,7 +78,7 @@ pub fn render(
     settings: &RenderSettings,
     on_pass: Option<&mut PassCallback>,
 ) -> Result<RenderOutput, String> {
-    opts.validate()?;
+    opts.validate_for(kind)?;
     if settings.spectral.is_some() {
         kind.spectral_support()?;
     }
@@ -112,6 +112,12 @@ pub fn render(
         IntegratorKind::BdptBackward => run(
             scene,
             &super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Backward)?,
+            settings,
+            on_pass,
+        ),
+        IntegratorKind::BdptCombined => run(
+            scene,
+            &super::bdpt::Bdpt::combined(scene, opts)?,
             settings,
             on_pass,
         ),
@@ -153,7 +159,7 @@ pub fn shard_info(
 /// Check, without rendering, that the integrator `kind` accepts `scene` with `opts`: validate the
 /// options and construct the integrator (its `new` makes the checks), then drop it.
 pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> Result<(), String> {
-    opts.validate()?;
+    opts.validate_for(kind)?;
     match kind {
         IntegratorKind::PtMono => super::pt::PtMono::new(scene, opts).map(drop),
         IntegratorKind::PtHero => super::pt::PtHero::new(scene, opts).map(drop),
@@ -163,6 +169,7 @@ pub fn check(scene: &Scene, kind: IntegratorKind, opts: &IntegratorOptions) -> R
         IntegratorKind::BdptBackward => {
             super::bdpt::Bdpt::new(scene, opts, super::bdpt::ResetMode::Backward).map(drop)
         }
+        IntegratorKind::BdptCombined => super::bdpt::Bdpt::combined(scene, opts).map(drop),
         IntegratorKind::BdptAllbins => {
             super::bdpt::allbins::BdptAllbins::new(scene, opts).map(drop)
         }

@@ -62,11 +62,11 @@ fn measurement(scene: &Scene, path: &FullPath) -> f64 {
 }
 
 /// The sub-paths of a sample and their caches, built on first use.
-struct Subpaths<'a> {
-    cam: &'a mut SubpathCache,
-    cam_v: &'a [Vertex],
-    lc: &'a mut SubpathCache,
-    light_v: &'a [Vertex],
+pub(super) struct Subpaths<'a> {
+    pub cam: &'a mut SubpathCache,
+    pub cam_v: &'a [Vertex],
+    pub lc: &'a mut SubpathCache,
+    pub light_v: &'a [Vertex],
 }
 
 /// One interior vertex of [`measurement`]: f_λ (`None`: the vertex has no spectral part), f_dir
@@ -88,7 +88,7 @@ fn vertex_factor(f: &mut f64, f_l: Option<f32>, f_dir: f32, g: f64) -> bool {
 /// (`cache`): the same products in the same order, so the same value to the bit. Only the
 /// connection segment, f_dir at its two ends, the emitter and f_λ at wavelengths not seen
 /// before are evaluated.
-fn measurement_cached(
+pub(super) fn measurement_cached(
     scene: &Scene,
     path: &FullPath,
     s: usize,
@@ -161,7 +161,7 @@ fn measurement_cached(
 }
 
 /// Fill the directional and wavelength pdfs of the path for MIS (eqs. 6.3, 6.4–6.8).
-fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
+pub(super) fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
     let k = path.k;
     let FullPath {
         v,
@@ -269,10 +269,17 @@ impl Bdpt {
     /// Set the wavelengths of the connected path (Jung 6.3): light tracing keeps the light
     /// sub-path's, camera hits and forward NEE keep the camera's, otherwise the forward or
     /// backward reset walks from the connection.
-    #[inline]
-    fn reset(&self, scene: &Scene, path: &mut FullPath, s: usize, t: usize, sampler: &mut Sampler) {
+    #[inline(always)]
+    pub(super) fn reset(
+        &self,
+        mode: ResetMode,
+        scene: &Scene,
+        path: &mut FullPath,
+        (s, t): (usize, usize),
+        sampler: &mut Sampler,
+    ) {
         let k = path.k;
-        match (self.mode, s, t) {
+        match (mode, s, t) {
             (_, 1, _) => reset::light_only(path),
             (ResetMode::Forward, _, 0 | 1) => reset::camera_only(path),
             (ResetMode::Forward, _, _) => reset::forward_reset(scene, path, s, sampler),
@@ -303,8 +310,8 @@ impl Bdpt {
     /// Put the vertices of strategy (s, t) into `scratch.path` (t = 1, s ≥ 2: a fresh light
     /// vertex, returns true); the camera prefix of the previous connection stays when it has
     /// the same s.
-    #[inline]
-    fn assemble(
+    #[inline(always)]
+    pub(super) fn assemble(
         &self,
         scene: &Scene,
         (s, t): (usize, usize),
@@ -342,6 +349,9 @@ impl Bdpt {
         scratch: &mut Scratch,
         sink: &mut SampleSink,
     ) {
+        if let Some(choice) = self.combined {
+            return self.connect_combined(scene, (s, t), choice, sampler, scratch, sink);
+        }
         let c = if !scene.has_media && scratch.plain.covers(s, t) {
             self.connect_plain(scene, (s, t), sampler, scratch, sink.stats)
         } else {
@@ -373,7 +383,7 @@ impl Bdpt {
             let (cam, light) = (&scratch.cam_log, &scratch.light_log);
             super::media::gather(scene, path, cam, light, s, fresh);
         }
-        self.reset(scene, path, s, t, sampler);
+        self.reset(self.mode, scene, path, (s, t), sampler);
         let xyz_w = xyz_weight(scene, path.lambda[0], &mut scratch.xyz);
         if xyz_w == glam::Vec3::ZERO {
             return None;
@@ -445,8 +455,8 @@ impl Bdpt {
 
     /// Add the contribution `xyz` of strategy (s, t) to the pixel, or splat it at `splat` (light
     /// tracing), and to its strategy image.
-    #[inline]
-    fn deliver(&self, s: usize, t: usize, c: Contribution, sink: &mut SampleSink) {
+    #[inline(always)]
+    pub(super) fn deliver(&self, s: usize, t: usize, c: Contribution, sink: &mut SampleSink) {
         let (xyz, splat, (lambda0, radiance)) = c;
         let ok = match splat {
             Some(at) => {
@@ -499,7 +509,7 @@ pub(crate) fn connect_for_test(
         let (cam, light) = (&scratch.cam_log, &scratch.light_log);
         super::media::gather(scene, &mut path, cam, light, s, false);
     }
-    b.reset(scene, &mut path, s, t, sampler);
+    b.reset(b.mode, scene, &mut path, (s, t), sampler);
     let f = measurement(scene, &path);
     // the cached evaluation is the same to the bit, from the walks' cache and from its own
     let (mut cam, mut lc) = (scratch.cam_cache.clone(), scratch.light_cache.clone());

@@ -6,7 +6,7 @@
 //! camera path that hits the emitter. ŝ = 0 (light paths hitting the pinhole) cannot happen.
 
 use super::subpath::Vertex;
-use super::weight::mis_walk;
+use super::weight::{mis_walk, mis_walk_shared};
 use crate::integrator::MisHeuristic;
 use crate::transport::{Segment, Stretch};
 use std::cell::RefCell;
@@ -63,6 +63,8 @@ struct Products {
     b: Vec<f64>,
     /// p_Λ(ŝ) at index ŝ − 1.
     lam: Vec<f64>,
+    /// `bdpt-combined`: p_Λ(ŝ) of the other reset, at index ŝ − 1.
+    other: Vec<f64>,
     out: Vec<f64>,
 }
 
@@ -391,6 +393,42 @@ impl FullPath {
         let lower = (1..s).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
         let upper = (s..k).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
         mis_walk(lower, upper, s, |s_hat| lam[s_hat - 1] * inv_own, h).1
+    }
+}
+
+impl FullPath {
+    /// `bdpt-combined`: the MIS weight of the path as made by strategy s under reset `mode`
+    /// among all 2k techniques (ŝ, r), ŝ = 1 … k, r ∈ {forward, backward}: p_r(s)^β / Σ_{ŝ,r'}
+    /// p_r'(ŝ)^β with p_r(ŝ) = p_A(ŝ) · p_Λ,r(ŝ) (eqs. 6.3, 6.9–6.14). With `both`, the weight
+    /// of (s, forward) and (s, backward) together, for light tracing (s = 1), where the two
+    /// resets make the same path with the same pdf. p_Λ,mode(s) must be positive. O(k).
+    pub fn combined_weight(&self, s: usize, mode: ResetMode, both: bool, h: MisHeuristic) -> f64 {
+        let mut guard = self.products.borrow_mut();
+        let pr = &mut *guard;
+        self.fill_wavelength_pdfs(ResetMode::Forward, pr);
+        std::mem::swap(&mut pr.lam, &mut pr.other);
+        self.fill_wavelength_pdfs(ResetMode::Backward, pr);
+        let (fwd, bwd) = (&pr.other, &pr.lam);
+        let k = self.k;
+        let inv_own = 1.0
+            / match mode {
+                ResetMode::Forward => fwd[s - 1],
+                ResetMode::Backward => bwd[s - 1],
+            };
+        let e = h.exponent() as i32;
+        // Σ_r (p_Λ,r(ŝ) / p_Λ,mode(s))^β
+        let shared =
+            |s_hat: usize| (fwd[s_hat - 1] * inv_own).powi(e) + (bwd[s_hat - 1] * inv_own).powi(e);
+        let own = shared(s);
+        let lower = (1..s).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
+        let upper = (s..k).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
+        let w = mis_walk_shared(lower, upper, (s, own), shared, h).1;
+        if both { w * own } else { w }
+    }
+
+    /// `bdpt-combined`: whether some technique (ŝ, r) has a positive, finite pdf. O(k).
+    pub fn any_technique(&self) -> bool {
+        self.any_strategy(ResetMode::Forward) || self.any_strategy(ResetMode::Backward)
     }
 }
 

@@ -17,11 +17,14 @@
 //! - `mis`: the connected path with its wavelengths, and p_Λ(ŝ) of every strategy;
 //! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19);
 //! - `media`: the segments of a connected path through media;
+//! - `combined`: `bdpt-combined`, both resets of a connection weighted among all 2k
+//!   techniques (ŝ, reset);
 //! - `plain` and `cache`: the fast evaluation of paths that cannot shift the wavelength, which
 //!   keeps only its product caches.
 
 pub mod allbins;
 pub(crate) mod cache;
+pub mod combined;
 pub mod connection;
 pub mod evaluate;
 pub mod geometric;
@@ -42,7 +45,7 @@ pub use mis::{FullPath, ResetMode};
 pub use subpath::{Buffers, Sampling, Vertex, camera_subpath, light_subpath};
 
 use crate::integrator::{
-    Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, SampleSink, Sampler,
+    Integrator, IntegratorOptions, LightWavelengths, MisHeuristic, ResetChoice, SampleSink, Sampler,
 };
 use crate::material::ShiftSampling;
 use crate::medium::Tracking;
@@ -51,7 +54,11 @@ use crate::spectrum::cie::CameraWavelengths;
 use wavelength::camera_wavelength;
 
 pub struct Bdpt {
+    /// The reset of bdpt-forward and bdpt-backward (bdpt-combined: the one its plain
+    /// connections' single-reset code paths take, unused otherwise).
     pub(crate) mode: ResetMode,
+    /// bdpt-combined: which resets each connection evaluates (`combined`).
+    pub(crate) combined: Option<ResetChoice>,
     pub(crate) depth: Depth,
     pub(crate) camera_wavelengths: CameraWavelengths,
     pub(crate) shift: ShiftSampling,
@@ -80,10 +87,18 @@ pub struct Scratch {
     pub(crate) light_rev: Vec<Vertex>,
     /// The CIE weight at the last λ0 (its bits).
     pub(crate) xyz: Option<(u32, glam::Vec3)>,
+    /// The first camera and light sub-path vertex after which the sub-path's throughput is zero
+    /// (`usize::MAX`: none); bdpt-combined skips the reset that would keep it.
+    pub(crate) cam_zero: usize,
+    pub(crate) light_zero: usize,
+    /// bdpt-combined with `--reset-choice sample`: the reset of this sample.
+    pub(crate) sample_reset: ResetMode,
     /// `path.v` starts with the camera prefix of this many vertices (0: none).
     pub(crate) prefix: usize,
     /// The products and pdfs of the plain connections (`plain`).
     pub(crate) plain: plain::PlainCache,
+    /// bdpt-combined: the plain connections' products at the backward reset's wavelength.
+    pub(crate) plain_backward: plain::PlainCache,
 }
 
 impl Bdpt {
@@ -92,6 +107,23 @@ impl Bdpt {
             ResetMode::Forward => "bdpt-forward",
             ResetMode::Backward => "bdpt-backward",
         };
+        Self::checked(scene, o, name, mode, None)
+    }
+
+    /// `bdpt-combined`: both resets combined by MIS over all 2k techniques (`combined`),
+    /// evaluating both at each connection or one chosen at random (`o.reset_choice`).
+    pub fn combined(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
+        let choice = Some(o.reset_choice);
+        Self::checked(scene, o, "bdpt-combined", ResetMode::Forward, choice)
+    }
+
+    fn checked(
+        scene: &Scene,
+        o: &IntegratorOptions,
+        name: &str,
+        mode: ResetMode,
+        combined: Option<ResetChoice>,
+    ) -> Result<Self, String> {
         if let Some(f) = scene.wavelength_dependent_feature() {
             return Err(format!(
                 "{name} refuses this scene: it has {f}; the wavelength reset needs directional \
@@ -103,6 +135,7 @@ impl Bdpt {
         }
         Ok(Bdpt {
             mode,
+            combined,
             depth: Depth::new(o),
             camera_wavelengths: o.camera_wavelengths,
             shift: ShiftSampling::new(o.wavelength_sampling, scene.domain),
@@ -146,7 +179,26 @@ impl Bdpt {
             tracking: self.tracking,
             stop_on_zero,
         };
-        let forward = self.mode == ResetMode::Forward;
+        // A sub-path may end at zero spectral throughput only where its wavelengths are final
+        // for every reset evaluated: the camera's under the forward reset, the light's under
+        // the backward one, neither when both are combined (docs/bdpt.md).
+        let forward = match self.combined {
+            Some(ResetChoice::Sample) => {
+                // `--reset-choice sample`: this sample's one reset
+                let forward = sampler.next() < 0.5;
+                scratch.sample_reset = if forward {
+                    ResetMode::Forward
+                } else {
+                    ResetMode::Backward
+                };
+                forward
+            }
+            _ => self.mode == ResetMode::Forward,
+        };
+        let (cam_stop, light_stop) = match self.combined {
+            None | Some(ResetChoice::Sample) => (forward, !forward),
+            Some(_) => (false, false),
+        };
         let cam = Buffers {
             out: &mut scratch.cam,
             log: media.then_some(&mut scratch.cam_log),
@@ -154,14 +206,15 @@ impl Bdpt {
         };
         let n = self.depth.camera_vertices();
         let rng = (&mut *sampler, &mut *stats);
-        camera_subpath(scene, (x, y), lambda0, n, how(forward), rng, cam);
+        scratch.cam_zero = camera_subpath(scene, (x, y), lambda0, n, how(cam_stop), rng, cam);
         let light = Buffers {
             out: &mut scratch.light,
             log: media.then_some(&mut scratch.light_log),
             spectral: &mut scratch.spectral,
         };
         let (n, mode) = (self.depth.light_vertices(), self.light_wavelengths);
-        light_subpath(scene, n, mode, how(!forward), (sampler, stats), light);
+        scratch.light_zero =
+            light_subpath(scene, n, mode, how(light_stop), (sampler, stats), light);
         scratch.cam_cache.invalidate();
         scratch.light_cache.invalidate();
         scratch.prefix = 0;
@@ -170,6 +223,9 @@ impl Bdpt {
         if !media {
             // plain connections need scenes without media (`plain`)
             scratch.plain.reset(&scratch.cam, &scratch.light);
+            if self.combined.is_some() {
+                scratch.plain_backward.reset(&scratch.cam, &scratch.light);
+            }
         }
     }
 }
@@ -261,8 +317,12 @@ impl Integrator for Bdpt {
             spectral: cache::SpectralCache::new(scene),
             light_rev: Vec::with_capacity(n),
             xyz: None,
+            cam_zero: usize::MAX,
+            light_zero: usize::MAX,
+            sample_reset: ResetMode::Forward,
             prefix: 0,
             plain: plain::PlainCache::default(),
+            plain_backward: plain::PlainCache::default(),
         }
     }
 

@@ -19,13 +19,14 @@
 //! order (`tests/plain.rs` compares them connection by connection).
 
 use super::cache::{SpectralCache, SubpathCache};
+use super::combined::Evaluate;
 use super::connection::{
     Connection, Contribution, camera_term, splat_position, weighted, xyz_weight,
 };
 use super::mis::ResetMode;
-use super::subpath::Vertex;
+use super::subpath::{Lambdas, Vertex, sample_light_vertex};
 use super::wavelength::{LambdaKey, light_wavelength};
-use super::weight::mis_walk;
+use super::weight::{mis_walk, mis_walk_shared};
 use super::{Bdpt, Scratch};
 use crate::integrator::{MisHeuristic, Sampler, Stats};
 use crate::scene::Scene;
@@ -43,7 +44,7 @@ impl Products {
     /// Entry `n` at wavelength `lambda`: `first` is entry 0, `factor(i)` the factor of sub-path vertex
     /// i (entry i = entry i − 1 · factor(i)); a product that reached 0 stays 0, as the direct
     /// measurement stops there.
-    #[inline]
+    #[inline(always)]
     fn get(
         &mut self,
         lambda: f32,
@@ -190,9 +191,10 @@ fn camera_prefix(
 }
 
 /// L(t) at λ: the emission of y0 towards y1 and the factors of the light vertices y1 … y(t−2)
-/// (each with the segment towards its predecessor on the light sub-path).
+/// (each with the segment towards its predecessor on the light sub-path). `COPY` makes one copy
+/// per caller (`spectral_part`), whose closures then have one call site each and stay inlined.
 #[inline(always)]
-fn light_suffix(
+fn light_suffix<const COPY: bool>(
     scene: &Scene,
     products: &mut Products,
     lc: &mut SubpathCache,
@@ -210,27 +212,75 @@ fn light_suffix(
 /// The pdfs that the connection changes (pbrt `Vertex::Pdf`): pa_fwd of x_s and pa_rev of
 /// x(s−1) and x(s−2) (t = 0: the emitter's light point and emission pdfs; `usize::MAX` where
 /// none).
+#[derive(Clone, Copy)]
 struct Changed {
     fwd_s: f64,
     rev: [(usize, f64); 2],
 }
 
+/// The wavelength pdf ratios a plain path's MIS walk takes: a path that does not shift has one
+/// value for light tracing (ŝ = 1) and one for every other strategy.
+trait RatioWalk {
+    fn walk(
+        &self,
+        lower: impl Iterator<Item = (f64, f64)>,
+        upper: impl Iterator<Item = (f64, f64)>,
+        s: usize,
+    ) -> (f64, f64);
+}
+
+/// One reset: p_Λ(ŝ) is `below` (ŝ = 1) or `above` (ŝ ≥ 2), the own strategy's among them.
+struct OneReset {
+    below: f64,
+    above: f64,
+    h: MisHeuristic,
+}
+
+impl RatioWalk for OneReset {
+    #[inline(always)]
+    fn walk(
+        &self,
+        lower: impl Iterator<Item = (f64, f64)>,
+        upper: impl Iterator<Item = (f64, f64)>,
+        s: usize,
+    ) -> (f64, f64) {
+        let own = if s == 1 { self.below } else { self.above };
+        let (below, above) = (self.below / own, self.above / own);
+        let lambda_ratio = |s_hat: usize| if s_hat == 1 { below } else { above };
+        mis_walk(lower, upper, s, lambda_ratio, self.h)
+    }
+}
+
+/// bdpt-combined: both resets' techniques share each strategy; Σ_r (p_Λ,r(ŝ)/p_Λ(s))^β is
+/// `below` (ŝ = 1) or `above` (ŝ ≥ 2), already divided by the sampling technique's p_Λ(s)^β.
+struct BothResets {
+    below: f64,
+    above: f64,
+    h: MisHeuristic,
+}
+
+impl RatioWalk for BothResets {
+    #[inline(always)]
+    fn walk(
+        &self,
+        lower: impl Iterator<Item = (f64, f64)>,
+        upper: impl Iterator<Item = (f64, f64)>,
+        s: usize,
+    ) -> (f64, f64) {
+        let (below, above) = (self.below, self.above);
+        let own = if s == 1 { below } else { above };
+        let lambda_pow = |s_hat: usize| if s_hat == 1 { below } else { above };
+        mis_walk_shared(lower, upper, (s, own), lambda_pow, self.h)
+    }
+}
+
 /// The strategy's own area pdf p_A(s) (eq. 6.3) and its MIS weight among ŝ = 1 … k
 /// (`super::weight::mis_walk`) over the sub-paths' stored pdfs with the ones the connection
 /// changed put in: the camera prefix keeps its sub-path's pdfs and the light suffix (x_s …
-/// x(k−1)) is turned around. A path that does not shift has two wavelength pdfs, `below`
-/// (ŝ = 1) and `above` (ŝ ≥ 2).
-#[inline]
-fn area_and_weight(
-    ends: &Ends,
-    changed: Changed,
-    (below, above): (f64, f64),
-    h: MisHeuristic,
-) -> (f64, f64) {
+/// x(k−1)) is turned around; `ratios` gives the wavelength pdfs.
+#[inline(always)]
+fn area_and_weight(ends: &Ends, changed: &Changed, ratios: &impl RatioWalk) -> (f64, f64) {
     let s = ends.s;
-    let own = if s == 1 { below } else { above };
-    let (below, above) = (below / own, above / own);
-    let lambda_ratio = |s_hat: usize| if s_hat == 1 { below } else { above };
     let lower = ends.cam[..s].iter().enumerate().skip(1).map(|(m, v)| {
         let rev = match changed.rev {
             [(i, r), _] | [_, (i, r)] if i == m => r,
@@ -241,7 +291,7 @@ fn area_and_weight(
     match ends.fresh {
         Some(v) => {
             let upper = std::iter::once((changed.fwd_s, v.pdf_fwd as f64));
-            mis_walk(lower, upper, s, lambda_ratio, h)
+            ratios.walk(lower, upper, s)
         }
         None => {
             let upper = ends.light[..ends.t].iter().rev().enumerate().map(|(j, v)| {
@@ -252,7 +302,7 @@ fn area_and_weight(
                 };
                 (fwd, v.pdf_fwd as f64)
             });
-            mis_walk(lower, upper, s, lambda_ratio, h)
+            ratios.walk(lower, upper, s)
         }
     }
 }
@@ -342,15 +392,7 @@ impl Bdpt {
         let e = ends.e;
         // λ* (Jung 6.3): light tracing keeps the light's, the forward reset the camera's, the
         // backward reset the emitter's (t = 0: sampled from its emission, Jung 6.3.3)
-        let lambda = match (s, t, self.mode) {
-            (1, ..) => light[0].data.lambda_out,
-            (_, _, ResetMode::Forward) => cam[0].data.lambda_in,
-            (_, 0, ResetMode::Backward) => {
-                light_wavelength(scene, e.light, self.light_wavelengths, sampler).lambda
-            }
-            (_, 1, ResetMode::Backward) => e.data.lambda_out,
-            (_, _, ResetMode::Backward) => light[0].data.lambda_out,
-        };
+        let lambda = self.plain_lambda(scene, &ends, self.mode, sampler);
         let xyz_w = xyz_weight(scene, lambda, xyz);
         if xyz_w == Vec3::ZERO {
             return None;
@@ -376,7 +418,12 @@ impl Bdpt {
             ResetMode::Backward => (ple, ple),
         };
         let changed = changed_pdfs(scene, &ends, conn);
-        let (area, w) = area_and_weight(&ends, changed, wl, self.mis);
+        let ratios = OneReset {
+            below: wl.0,
+            above: wl.1,
+            h: self.mis,
+        };
+        let (area, w) = area_and_weight(&ends, &changed, &ratios);
         // the strategy's own pdf (eq. 6.14)
         let p = area * if s == 1 { wl.0 } else { wl.1 };
         // the shadow ray last, so that the weight's divisions overlap its traversal (bdpt-forward
@@ -399,6 +446,165 @@ impl Bdpt {
     }
 }
 
+impl Bdpt {
+    /// λ* of a plain path under reset `mode` (Jung 6.3): light tracing keeps the light's, the
+    /// forward reset the camera's, the backward reset the emitter's (t = 0: sampled from its
+    /// emission, Jung 6.3.3; sampler: one value then).
+    #[inline(always)]
+    fn plain_lambda(
+        &self,
+        scene: &Scene,
+        ends: &Ends,
+        mode: ResetMode,
+        sampler: &mut Sampler,
+    ) -> f32 {
+        let (cam, light, e) = (ends.cam, ends.light, ends.e);
+        match (ends.s, ends.t, mode) {
+            (1, ..) => light[0].data.lambda_out,
+            (_, _, ResetMode::Forward) => cam[0].data.lambda_in,
+            (_, 0, ResetMode::Backward) => {
+                light_wavelength(scene, e.light, self.light_wavelengths, sampler).lambda
+            }
+            (_, 1, ResetMode::Backward) => e.data.lambda_out,
+            (_, _, ResetMode::Backward) => light[0].data.lambda_out,
+        }
+    }
+
+    /// bdpt-combined's connection of a plain path (`super::combined`): the connection, its
+    /// changed pdfs and its shadow ray once, then each reset's λ*, products and weight among
+    /// both resets' techniques. Light tracing and the backward reset read their products from
+    /// `Scratch::plain_backward` (both at the light's wavelength), the forward reset from
+    /// `Scratch::plain` (the camera's), so that neither evicts the other.
+    pub(super) fn combined_plain(
+        &self,
+        scene: &Scene,
+        (s, t): (usize, usize),
+        how: Evaluate,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        stats: &mut Stats,
+    ) -> [Option<Contribution>; 2] {
+        let mut out = [None, None];
+        // NEE: one fresh light vertex for both resets, its wavelength for the backward one
+        let fresh = (t == 1 && s >= 2).then(|| {
+            let mut v = sample_light_vertex(scene, sampler);
+            if how.has_backward() {
+                let lambda = light_wavelength(scene, v.light, self.light_wavelengths, sampler);
+                v.data = Lambdas::both(lambda.lambda);
+            }
+            v
+        });
+        let Scratch {
+            cam,
+            light,
+            cam_cache,
+            light_cache,
+            spectral,
+            xyz,
+            plain,
+            plain_backward,
+            ..
+        } = scratch;
+        let (cam, light) = (&cam[..], &light[..]);
+        let ends = Ends::new((s, t), cam, light, fresh.as_ref());
+        let e = ends.e;
+        let mut caches = Caches {
+            cam: cam_cache,
+            light: light_cache,
+            spectral,
+            plain,
+        };
+        let Some(geo) = geometry(scene, &ends, &mut caches) else {
+            return out;
+        };
+        let splat = if s == 1 {
+            match splat_position(scene, &cam[0], ends.b) {
+                Some(at) => Some(at),
+                None => return out,
+            }
+        } else {
+            None
+        };
+        let changed = changed_pdfs(scene, &ends, geo.conn);
+        let mut shadow = None;
+        let power = |x: f64| {
+            if self.mis == MisHeuristic::Power {
+                x * x
+            } else {
+                x
+            }
+        };
+        for (slot, &mode) in out.iter_mut().zip(how.resets()) {
+            let lambda = self.plain_lambda(scene, &ends, mode, sampler);
+            let xyz_w = xyz_weight(scene, lambda, xyz);
+            if xyz_w == Vec3::ZERO {
+                continue;
+            }
+            let table = if s == 1 || mode == ResetMode::Backward {
+                &mut *plain_backward
+            } else {
+                &mut *caches.plain
+            };
+            let mut at = Caches {
+                cam: &mut *caches.cam,
+                light: &mut *caches.light,
+                spectral: &mut *caches.spectral,
+                plain: table,
+            };
+            let Some(mut f) = spectral_part::<true>(scene, &ends, &geo, lambda, &mut at) else {
+                continue;
+            };
+            // p_Λ of every technique at λ* (eqs. 6.4, 6.5, 6.9–6.13): light tracing and the
+            // backward reset's take the emitter's pdf, the forward reset's camera strategies the
+            // camera's; `q` is the evaluated technique's
+            let emit = &mut at.plain.emit;
+            let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
+            let pc0 = cached(&mut emit.pc0, LambdaKey::of(lambda), || {
+                scene.observer.pdf_wavelength(cw, lambda) as f64
+            });
+            let ple = cached(&mut emit.ple, (e.light, LambdaKey::of(lambda)), || {
+                scene.lights.pdf_wavelength(e.light as usize, lambda, lw) as f64
+            });
+            let q = if s >= 2 && mode == ResetMode::Forward {
+                pc0
+            } else {
+                ple
+            };
+            let (pl, pc) = (power(ple / q), power(pc0 / q));
+            let ratios = BothResets {
+                below: 2.0 * pl,
+                above: pc + pl,
+                h: self.mis,
+            };
+            let (area, w) = area_and_weight(&ends, &changed, &ratios);
+            // light tracing stands for both resets' techniques: their two weights
+            let w = if s == 1 { w * ratios.below } else { w };
+            let p = area * q;
+            if t >= 1 {
+                let tr = *shadow.get_or_insert_with(|| {
+                    Connection::shadow(scene, ends.a, ends.b, s == 1, &mut stats.rays)
+                });
+                if tr.is_zero() {
+                    return out;
+                }
+                f *= tr.at(lambda) as f64;
+            }
+            if !(p > 0.0 && p.is_finite()) {
+                stats.dropped_strategy_pdfs += (f != 0.0) as u64;
+                continue;
+            }
+            let w = if self.only.is_some() {
+                how.unweighted()
+            } else {
+                w * how.inverse_choice()
+            };
+            // eqs. 6.18/6.19: w · f / (p_A p_Λ), in XYZ with the CIE weight at λ0 = λ*
+            *slot = weighted(xyz_w, lambda, w * f / p, splat, stats);
+        }
+        out
+    }
+}
+
 /// A connection of a strategy with t ≥ 1 and the solid-angle pdfs of its scattering ends
 /// towards each other (x(s−1) for s ≥ 2, x_s for t ≥ 2), which its changed pdfs reuse.
 #[derive(Clone, Copy)]
@@ -417,16 +623,89 @@ fn lobe(scene: &Scene, x: &Vertex, wo: Vec3, (wi, cos_i): (Vec3, f32)) -> (f32, 
     lobe.eval_pdf_with_cosines((wo, x.n.dot(wo)), (wi, cos_i))
 }
 
+/// What a connection fixes whatever the wavelength: the segment and f_dir at its scattering ends
+/// with their pdfs (`None` for t = 0, where the camera sub-path reached the emitter itself).
+#[derive(Clone, Copy)]
+struct Geometry {
+    conn: Option<Conn>,
+    f_a: f32,
+    f_b: f32,
+}
+
 /// The measurement f of the connection at λ* = `lambda` (eq. 6.2): C(s) · [x(s−1), x_s] ·
 /// L(t), with the connection's factors first, so that a zero f_dir ends it before the products
 /// are looked up. `None` where f is 0; else f and the connection (t ≥ 1).
-#[inline]
+#[inline(always)]
 fn measurement(
     scene: &Scene,
     ends: &Ends,
     lambda: f32,
     caches: &mut Caches,
 ) -> Option<(f64, Option<Conn>)> {
+    let geo = geometry(scene, ends, caches)?;
+    let f = spectral_part::<false>(scene, ends, &geo, lambda, caches)?;
+    Some((f, geo.conn))
+}
+
+/// The wavelength-independent part of [`measurement`]: the connection and f_dir and the pdf of
+/// the lobes at its scattering ends, with the sub-paths' cached directions to their other
+/// neighbours (the pinhole's and the emitter's factors are W_e and L_e, their pdfs come in
+/// `changed_pdfs`). `None` where an f_dir is 0.
+#[inline(always)]
+fn geometry(scene: &Scene, ends: &Ends, caches: &mut Caches) -> Option<Geometry> {
+    let (s, t) = (ends.s, ends.t);
+    if t == 0 {
+        return Some(Geometry {
+            conn: None,
+            f_a: 1.0,
+            f_b: 1.0,
+        });
+    }
+    let (cam, light) = (ends.cam, ends.light);
+    let (a, b) = (ends.a, ends.b);
+    let c = Connection::new(a, b);
+    let w = c.seg.w;
+    // (`if` rather than `bool::then`: its closures stayed out of line once the combined
+    // connection also inlined this function, +9 % instructions in bdpt-forward)
+    let end_a = if s >= 2 {
+        caches.cam.camera(scene, cam);
+        Some(lobe(scene, a, -caches.cam.seg(s - 2).w, (w, c.cos_a)))
+    } else {
+        None
+    };
+    let end_b = if t >= 2 {
+        caches.light.light(scene, light);
+        Some(lobe(scene, b, caches.light.seg(t - 1).w, (-w, -c.cos_b)))
+    } else {
+        None
+    };
+    let (f_a, f_b) = (end_a.map_or(1.0, |e| e.0), end_b.map_or(1.0, |e| e.0));
+    if f_a == 0.0 || f_b == 0.0 {
+        return None;
+    }
+    let conn = Conn {
+        c,
+        pdf_a: end_a.map(|e| e.1),
+        pdf_b: end_b.map(|e| e.1),
+    };
+    Some(Geometry {
+        conn: Some(conn),
+        f_a,
+        f_b,
+    })
+}
+
+/// The spectral rest of [`measurement`] at λ* = `lambda`: the camera prefix, the spectral factors of the
+/// connection's ends and the light suffix. `None` where f is 0. `COMBINED`: bdpt-combined's
+/// copy (`light_suffix`).
+#[inline(always)]
+fn spectral_part<const COMBINED: bool>(
+    scene: &Scene,
+    ends: &Ends,
+    geo: &Geometry,
+    lambda: f32,
+    caches: &mut Caches,
+) -> Option<f64> {
     let (s, t) = (ends.s, ends.t);
     let Caches {
         cam: cam_cache,
@@ -435,56 +714,34 @@ fn measurement(
         plain,
     } = caches;
     let (cam, light) = (ends.cam, ends.light);
-    if t == 0 {
+    let Some(Conn { c, .. }) = geo.conn else {
         let e = ends.a;
         let c = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, lambda);
         let f = emitted(scene, &mut plain.emit, e, cam[s - 2].p, lambda) * c;
-        return (f > 0.0 || f.is_nan()).then_some((f, None));
-    }
+        return (f > 0.0 || f.is_nan()).then_some(f);
+    };
     let (a, b) = (ends.a, ends.b);
-    let c = Connection::new(a, b);
-    let w = c.seg.w;
-    // f_dir and the pdf of the lobes at the scattering ends, with the sub-paths' cached
-    // directions to their other neighbours (the pinhole's and the emitter's factors are W_e and
-    // L_e, their pdfs come in `changed_pdfs`)
-    let end_a = (s >= 2).then(|| {
-        cam_cache.camera(scene, cam);
-        lobe(scene, a, -cam_cache.seg(s - 2).w, (w, c.cos_a))
-    });
-    let end_b = (t >= 2).then(|| {
-        light_cache.light(scene, light);
-        lobe(scene, b, light_cache.seg(t - 1).w, (-w, -c.cos_b))
-    });
-    let (f_a, f_b) = (end_a.map_or(1.0, |e| e.0), end_b.map_or(1.0, |e| e.0));
-    if f_a == 0.0 || f_b == 0.0 {
-        return None;
-    }
     let cam_part = if s == 1 {
         // x0 → x1: the pinhole importance and the geometry term without the pinhole's cosine
-        let f = camera_term(scene, w, c.seg.d2, b);
+        let f = camera_term(scene, c.seg.w, c.seg.d2, b);
         if f <= 0.0 {
             return None;
         }
         f
     } else {
         let cp = camera_prefix(scene, &mut plain.cam, cam_cache, cam, spectral, s, lambda);
-        cp * factor(f_lambda(scene, spectral, a, lambda), f_a, c.seg.g)
+        cp * factor(f_lambda(scene, spectral, a, lambda), geo.f_a, c.seg.g)
     };
     let light_part = if t == 1 {
         emitted(scene, &mut plain.emit, b, a.p, lambda)
     } else {
         let (products, sp) = (&mut plain.light, (&mut **spectral, &mut plain.emit));
-        let lf = light_suffix(scene, products, light_cache, light, sp, t, lambda);
+        let lf = light_suffix::<COMBINED>(scene, products, light_cache, light, sp, t, lambda);
         let g = light_cache.seg(t - 1).g;
-        lf * factor(f_lambda(scene, spectral, b, lambda), f_b, g)
+        lf * factor(f_lambda(scene, spectral, b, lambda), geo.f_b, g)
     };
     let f = cam_part * light_part;
-    let conn = Conn {
-        c,
-        pdf_a: end_a.map(|e| e.1),
-        pdf_b: end_b.map(|e| e.1),
-    };
-    (f > 0.0 || f.is_nan()).then_some((f, Some(conn)))
+    (f > 0.0 || f.is_nan()).then_some(f)
 }
 
 /// The pdfs the connection changes (`Connection::pdfs`; t = 0: the emitter's light point and

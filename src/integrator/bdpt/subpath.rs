@@ -72,6 +72,8 @@ struct SpectralWalker<'a, const LIGHT: bool> {
     tracking: Tracking,
     stop_on_zero: bool,
     beta: f32,
+    /// The first vertex after which the throughput is zero (`usize::MAX`: none).
+    zero_at: usize,
     /// Free-flight weight of the segment being traced.
     w: f32,
     /// The diagonals of the materials at the wavelengths last seen (`super::cache`).
@@ -145,11 +147,13 @@ impl<const LIGHT: bool> Walker<Lambdas> for SpectralWalker<'_, LIGHT> {
         let w = with_spectrum!(self.scene, v, m => scatter(v, m, lambda, how, sampler, spectral),
             else return Step::Discard);
         self.beta *= w;
-        if self.stop_on_zero && !(self.beta > 0.0) {
-            Step::Stop
-        } else {
-            Step::Continue
+        if !(self.beta > 0.0) {
+            self.zero_at = self.zero_at.min(verts.len() - 1);
+            if self.stop_on_zero {
+                return Step::Stop;
+            }
         }
+        Step::Continue
     }
 
     #[inline]
@@ -194,13 +198,14 @@ impl<'a> Buffers<'a> {
         (sampler, stats): (&mut Sampler, &mut Stats),
         how: Sampling,
         beta: f32,
-    ) {
+    ) -> usize {
         let mut walker = SpectralWalker::<LIGHT> {
             scene,
             shift: how.shift,
             tracking: how.tracking,
             stop_on_zero: how.stop_on_zero,
             beta,
+            zero_at: usize::MAX,
             w: 1.0,
             spectral: self.spectral,
         };
@@ -210,6 +215,7 @@ impl<'a> Buffers<'a> {
             log: self.log,
         };
         stats.rays += geometric::random_walk(scene, start, trace, sampler, &mut walker);
+        walker.zero_at
     }
 }
 
@@ -217,7 +223,8 @@ impl<'a> Buffers<'a> {
 /// (x0 included), Jung Alg. 1. At each scattering vertex (surface or medium) the incident
 /// wavelength is sampled as a camera path does (eq. 6.6), the last vertex included. With
 /// `stop_on_zero` (forward reset: camera wavelengths are final) the path ends when its spectral
-/// throughput is zero; otherwise only by depth or escape.
+/// throughput is zero; otherwise only by depth or escape. Returns the first vertex after which
+/// the throughput is zero (`usize::MAX`: none): the forward reset's connections through it are 0.
 pub fn camera_subpath(
     scene: &Scene,
     (x, y): (f32, f32),
@@ -226,7 +233,7 @@ pub fn camera_subpath(
     how: Sampling,
     (sampler, stats): (&mut Sampler, &mut Stats),
     mut bufs: Buffers,
-) {
+) -> usize {
     bufs.clear();
     let (mut x0, ray, pdf_dir) = Vertex::camera(scene, x, y);
     x0.data = Lambdas::both(lambda0);
@@ -237,13 +244,15 @@ pub fn camera_subpath(
         pdf_dir,
         medium,
     };
-    bufs.walk::<false>(scene, start, max_vertices, (sampler, stats), how, 1.0);
+    bufs.walk::<false>(scene, start, max_vertices, (sampler, stats), how, 1.0)
 }
 
 /// Trace a light sub-path with at most `max_vertices` vertices, Jung Alg. 3: light ∝ power,
 /// λ from its emission spectrum (or uniform), cosine emission, and at each scattering vertex the
 /// exitant wavelength sampled as a light path does (eq. 6.7). With `stop_on_zero` (backward
-/// reset: light wavelengths are final) it ends at zero spectral throughput.
+/// reset: light wavelengths are final) it ends at zero spectral throughput. Returns the first
+/// vertex after which the throughput is zero (`usize::MAX`: none): the backward reset's
+/// connections through it are 0.
 pub fn light_subpath(
     scene: &Scene,
     max_vertices: usize,
@@ -251,10 +260,10 @@ pub fn light_subpath(
     how: Sampling,
     (sampler, stats): (&mut Sampler, &mut Stats),
     mut bufs: Buffers,
-) {
+) -> usize {
     bufs.clear();
     if max_vertices == 0 || scene.lights.is_empty() {
-        return;
+        return usize::MAX;
     }
     let mut v0 = sample_light_vertex(scene, sampler);
     let light = v0.light as usize;
@@ -262,11 +271,13 @@ pub fn light_subpath(
     v0.data = Lambdas::both(lambda);
     let beta = scene.lights[light].spectrum.eval(lambda);
     bufs.out.push(v0);
-    if max_vertices == 1 || (how.stop_on_zero && beta <= 0.0) {
-        return;
+    let zero_at = if beta > 0.0 { usize::MAX } else { 0 };
+    if max_vertices == 1 || (how.stop_on_zero && zero_at == 0) {
+        return zero_at;
     }
     let (start, _) = Start::emission(scene, &v0, sampler);
-    bufs.walk::<true>(scene, start, max_vertices, (sampler, stats), how, beta);
+    let walked = bufs.walk::<true>(scene, start, max_vertices, (sampler, stats), how, beta);
+    zero_at.min(walked)
 }
 
 /// A light vertex: a light chosen by power and a point by area, with `pdf_fwd` their product

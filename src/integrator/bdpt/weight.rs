@@ -38,18 +38,43 @@ pub fn mis_walk(
 ) -> (f64, f64) {
     // one copy of the loops per heuristic, without its test inside them
     match h {
-        MisHeuristic::Power => walk::<true>(lower, upper, s, lambda),
-        MisHeuristic::Balance => walk::<false>(lower, upper, s, lambda),
+        MisHeuristic::Power => walk::<true>(lower, upper, s, |m| square(lambda(m)), 1.0),
+        MisHeuristic::Balance => walk::<false>(lower, upper, s, lambda, 1.0),
     }
 }
 
-/// [`mis_walk`] for the balance (`POWER` false) or the power heuristic (β = 2).
+/// [`mis_walk`] where several techniques share each strategy ŝ (`bdpt-combined`: one per
+/// reset), so that the own strategy's term is not 1: `lambda_pow(ŝ)` is Σ_r p_Λ,r(ŝ)^β over the
+/// techniques of ŝ, and `own` the same sum at ŝ = s, both divided by the sampling technique's
+/// p_Λ(s)^β. Returns p_A(s) and p(s)^β / Σ_{ŝ,r} p_r(ŝ)^β, the weight of the sampling technique.
+#[inline(always)]
+pub fn mis_walk_shared(
+    lower: impl Iterator<Item = (f64, f64)>,
+    upper: impl Iterator<Item = (f64, f64)>,
+    (s, own): (usize, f64),
+    lambda_pow: impl Fn(usize) -> f64,
+    h: MisHeuristic,
+) -> (f64, f64) {
+    match h {
+        MisHeuristic::Power => walk::<true>(lower, upper, s, lambda_pow, own),
+        MisHeuristic::Balance => walk::<false>(lower, upper, s, lambda_pow, own),
+    }
+}
+
+#[inline(always)]
+fn square(x: f64) -> f64 {
+    x * x
+}
+
+/// [`mis_walk`] for the balance (`POWER` false) or the power heuristic (β = 2), with the
+/// wavelength pdf ratios already raised to β (`lambda_pow`) and the own strategy's term `own`.
 #[inline(always)]
 fn walk<const POWER: bool>(
     lower: impl Iterator<Item = (f64, f64)>,
     upper: impl Iterator<Item = (f64, f64)>,
     s: usize,
-    lambda: impl Fn(usize) -> f64,
+    lambda_pow: impl Fn(usize) -> f64,
+    own: f64,
 ) -> (f64, f64) {
     let power = |r: f64| if POWER { r * r } else { r };
     let (mut area, mut down) = (1.0, 0.0);
@@ -58,16 +83,16 @@ fn walk<const POWER: bool>(
         area *= fwd;
         // kept finite, so that a zero ratio ends the sum below even where it overflowed (∞ · 0
         // would be NaN); a NaN ratio (a degenerate pdf) counts as overwhelming: weight 0
-        down = (power(rev / fwd) * (down + power(lambda(m)))).min(f64::MAX);
+        down = (power(rev / fwd) * (down + lambda_pow(m))).min(f64::MAX);
     }
     let (mut up, mut run) = (0.0, 1.0);
     for (m, (fwd, rev)) in (s..).zip(upper) {
         // p(m + 1)/p(s) = p(m)/p(s) · pa_fwd[m] / pa_rev[m]
         area *= rev;
         run = (run * power(fwd / rev)).min(f64::MAX);
-        up += run * power(lambda(m + 1));
+        up += run * lambda_pow(m + 1);
     }
-    (area, 1.0 / (1.0 + down + up))
+    (area, 1.0 / (own + down + up))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 //! full-path evaluation, the media pdfs of connected paths, and the MIS weights of every
 //! strategy against each strategy's pdf evaluated on its own.
 
+mod combined_weights;
 mod media_pdfs;
 mod media_weights;
 mod mis_incremental;
