@@ -136,7 +136,7 @@ fn experiment_writes_a_self_contained_report() {
     let budgets = info["modes"][0]["budgets"].as_array().unwrap().len();
     assert_eq!(data["budgets"].as_array().unwrap().len(), budgets);
     let variants = data["variants"].as_array().unwrap();
-    assert_eq!(variants.len(), 5);
+    assert_eq!(variants.len(), 6);
     assert_same_pixels(
         &run,
         "reference.exr",

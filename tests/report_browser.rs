@@ -178,7 +178,7 @@ fn failed_and_skipped(r: &Value) -> (Vec<String>, Vec<String>) {
     )
 }
 
-/// The report of `walls-integrators --quick` (a reference, five variants at three budgets):
+/// The report of `walls-integrators --quick` (a reference, six variants at three budgets):
 /// it renders without errors; flipping changes the canvas and keeps the view; +1 stop on the
 /// exposure slider doubles the linear value of every channel that is neither clipped nor near
 /// black (each 8-bit value is the true one rounded, so both values are known to ±½ step and a

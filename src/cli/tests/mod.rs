@@ -82,6 +82,7 @@ fn every_integrator_name_parses_for_render() {
             "pt-hero",
             "bdpt-forward",
             "bdpt-backward",
+            "bdpt-combined",
             "bdpt-allbins"
         ]
     );
@@ -157,7 +158,7 @@ fn a_bad_enum_value_fails_listing_the_possible_values() {
     );
     assert!(
         m.contains(
-            "[possible values: pt-mono, pt-hero, bdpt-forward, bdpt-backward, bdpt-allbins]"
+            "[possible values: pt-mono, pt-hero, bdpt-forward, bdpt-backward, bdpt-combined, bdpt-allbins]"
         ),
         "{m}"
     );

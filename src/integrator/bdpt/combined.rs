@@ -13,13 +13,15 @@
 
 use super::connection::{Connection, Contribution, splat_position, weighted, xyz_weight};
 use super::evaluate::{Subpaths, fill_pdfs, measurement_cached};
-use super::mis::ResetMode;
+use super::mis::{FullPath, ResetMode};
 use super::subpath::Lambdas;
 use super::wavelength::light_wavelength;
 use super::{Bdpt, Scratch};
 use crate::integrator::{ResetChoice, SampleSink, Sampler, Stats};
+use crate::medium::Tracking;
 use crate::scene::{NONE, Scene};
 use crate::transport::Transmittance;
+use crate::transport::segment::retarget;
 
 /// What one connection of bdpt-combined evaluates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,6 +131,56 @@ enum Shadow {
     Blocked,
 }
 
+impl Shadow {
+    /// The transmittance of the connecting segment x(s−1) → x_s of `path` at its λ(s−1):
+    /// traced the first time (a surface scene's shadow ray, or the segment through media at
+    /// this wavelength, recording its stretches), carried from the first wavelength to this one
+    /// afterwards. `Blocked` after a blocked segment.
+    #[inline]
+    fn at(
+        &mut self,
+        scene: &Scene,
+        path: &mut FullPath,
+        s: usize,
+        (tracking, rays): (Tracking, &mut u64),
+        sampler: &mut Sampler,
+    ) -> f32 {
+        let lambda = path.lambda[s - 1];
+        match *self {
+            Shadow::NotYet if scene.has_media => {
+                match super::media::connection(scene, path, s, tracking, rays, sampler) {
+                    Some(tr) => {
+                        *self = Shadow::Media { lambda, tr };
+                        tr
+                    }
+                    None => {
+                        *self = Shadow::Blocked;
+                        0.0
+                    }
+                }
+            }
+            Shadow::NotYet => {
+                let (a, b) = (&path.v[s - 1], &path.v[s]);
+                let tr = Connection::shadow(scene, a, b, s == 1, rays);
+                *self = if tr.is_zero() {
+                    Shadow::Blocked
+                } else {
+                    Shadow::Surface(tr)
+                };
+                tr.at(lambda)
+            }
+            Shadow::Surface(tr) => tr.at(lambda),
+            Shadow::Clear => 1.0,
+            Shadow::Media { lambda: first, tr } => {
+                let st = path.seg[s - 1].stretches(&path.stretches);
+                let mut u = || sampler.next();
+                tr * retarget(scene, st, first, lambda, &mut u)
+            }
+            Shadow::Blocked => 0.0,
+        }
+    }
+}
+
 impl Bdpt {
     /// Connect strategy (s, t) under the resets `choice` asks for and deliver each weighted
     /// contribution. Out of line: inlined into `Bdpt::connect`, its code changed what the
@@ -217,40 +269,8 @@ impl Bdpt {
                 continue;
             }
             // the connecting segment's transmittance, traced once for both resets
-            let lambda = path.lambda[s - 1];
-            let tr = match shadow {
-                Shadow::NotYet if media => {
-                    let (rays, mode) = (&mut stats.rays, self.tracking);
-                    match super::media::connection(scene, path, s, mode, rays, sampler) {
-                        Some(tr) => {
-                            shadow = Shadow::Media { lambda, tr };
-                            tr
-                        }
-                        None => {
-                            shadow = Shadow::Blocked;
-                            0.0
-                        }
-                    }
-                }
-                Shadow::NotYet => {
-                    let (a, b) = (&path.v[s - 1], &path.v[s]);
-                    let tr = Connection::shadow(scene, a, b, s == 1, &mut stats.rays);
-                    shadow = if tr.is_zero() {
-                        Shadow::Blocked
-                    } else {
-                        Shadow::Surface(tr)
-                    };
-                    tr.at(lambda)
-                }
-                Shadow::Surface(tr) => tr.at(lambda),
-                Shadow::Clear => 1.0,
-                Shadow::Media { lambda: first, tr } => {
-                    let st = path.seg[s - 1].stretches(&path.stretches);
-                    let mut u = || sampler.next();
-                    tr * crate::transport::segment::retarget(scene, st, first, lambda, &mut u)
-                }
-                Shadow::Blocked => 0.0,
-            };
+            let tracing = (self.tracking, &mut stats.rays);
+            let tr = shadow.at(scene, path, s, tracing, sampler);
             if matches!(shadow, Shadow::Blocked) {
                 break;
             }

@@ -470,6 +470,52 @@ impl Bdpt {
         }
     }
 
+    /// bdpt-combined on a plain path at λ* = `lambda` made by reset `mode`: the technique's own
+    /// pdf p_A(s) · p_Λ(s) (eq. 6.14) and its weight among both resets' techniques. p_Λ at λ*
+    /// (eqs. 6.4, 6.5, 6.9–6.13): light tracing's and the backward reset's are the emitter's
+    /// pdf, the forward reset's camera strategies' the camera's; light tracing stands for both
+    /// resets' techniques and gets their two weights.
+    #[inline(always)]
+    fn both_resets_weight(
+        &self,
+        scene: &Scene,
+        emit: &mut Emitters,
+        ends: &Ends,
+        changed: &Changed,
+        (mode, lambda): (ResetMode, f32),
+    ) -> (f64, f64) {
+        let (s, light) = (ends.s, ends.e.light);
+        let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
+        let pc0 = cached(&mut emit.pc0, LambdaKey::of(lambda), || {
+            scene.observer.pdf_wavelength(cw, lambda) as f64
+        });
+        let ple = cached(&mut emit.ple, (light, LambdaKey::of(lambda)), || {
+            scene.lights.pdf_wavelength(light as usize, lambda, lw) as f64
+        });
+        // q: the evaluated technique's p_Λ(s)
+        let q = if s >= 2 && mode == ResetMode::Forward {
+            pc0
+        } else {
+            ple
+        };
+        let power = |x: f64| {
+            if self.mis == MisHeuristic::Power {
+                x * x
+            } else {
+                x
+            }
+        };
+        let (pl, pc) = (power(ple / q), power(pc0 / q));
+        let ratios = BothResets {
+            below: 2.0 * pl,
+            above: pc + pl,
+            h: self.mis,
+        };
+        let (area, w) = area_and_weight(ends, changed, &ratios);
+        let w = if s == 1 { w * ratios.below } else { w };
+        (area * q, w)
+    }
+
     /// bdpt-combined's connection of a plain path (`super::combined`): the connection, its
     /// changed pdfs and its shadow ray once, then each reset's λ*, products and weight among
     /// both resets' techniques. Light tracing and the backward reset read their products from
@@ -507,7 +553,6 @@ impl Bdpt {
         } = scratch;
         let (cam, light) = (&cam[..], &light[..]);
         let ends = Ends::new((s, t), cam, light, fresh.as_ref());
-        let e = ends.e;
         let mut caches = Caches {
             cam: cam_cache,
             light: light_cache,
@@ -527,13 +572,6 @@ impl Bdpt {
         };
         let changed = changed_pdfs(scene, &ends, geo.conn);
         let mut shadow = None;
-        let power = |x: f64| {
-            if self.mis == MisHeuristic::Power {
-                x * x
-            } else {
-                x
-            }
-        };
         for (slot, &mode) in out.iter_mut().zip(how.resets()) {
             let lambda = self.plain_lambda(scene, &ends, mode, sampler);
             let xyz_w = xyz_weight(scene, lambda, xyz);
@@ -554,32 +592,8 @@ impl Bdpt {
             let Some(mut f) = spectral_part::<true>(scene, &ends, &geo, lambda, &mut at) else {
                 continue;
             };
-            // p_Λ of every technique at λ* (eqs. 6.4, 6.5, 6.9–6.13): light tracing and the
-            // backward reset's take the emitter's pdf, the forward reset's camera strategies the
-            // camera's; `q` is the evaluated technique's
-            let emit = &mut at.plain.emit;
-            let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
-            let pc0 = cached(&mut emit.pc0, LambdaKey::of(lambda), || {
-                scene.observer.pdf_wavelength(cw, lambda) as f64
-            });
-            let ple = cached(&mut emit.ple, (e.light, LambdaKey::of(lambda)), || {
-                scene.lights.pdf_wavelength(e.light as usize, lambda, lw) as f64
-            });
-            let q = if s >= 2 && mode == ResetMode::Forward {
-                pc0
-            } else {
-                ple
-            };
-            let (pl, pc) = (power(ple / q), power(pc0 / q));
-            let ratios = BothResets {
-                below: 2.0 * pl,
-                above: pc + pl,
-                h: self.mis,
-            };
-            let (area, w) = area_and_weight(&ends, &changed, &ratios);
-            // light tracing stands for both resets' techniques: their two weights
-            let w = if s == 1 { w * ratios.below } else { w };
-            let p = area * q;
+            let (p, w) =
+                self.both_resets_weight(scene, &mut at.plain.emit, &ends, &changed, (mode, lambda));
             if t >= 1 {
                 let tr = *shadow.get_or_insert_with(|| {
                     Connection::shadow(scene, ends.a, ends.b, s == 1, &mut stats.rays)
