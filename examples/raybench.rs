@@ -4,7 +4,8 @@
 //! The BVH is built as scenes build it (`Accel::build`, quality `auto`) unless `PRESET` says
 //! otherwise: `auto`, `high` or `medium` (the scene's `accel.quality`), or one of obvhs' other
 //! presets (`fastest`, `very_fast`, `fast`, `slow`, `very_slow`), which `LEAF`, `REINS`,
-//! `NOSPLIT` and `LAYOUT=full|quantised` modify for experiments.
+//! `NOSPLIT` and `LAYOUT=full|quantised` modify for experiments. `STOKES_ISA=avx512|avx2|portable`
+//! forces a lower instruction set than the CPU's best; the one in use is printed.
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
 
@@ -29,6 +30,10 @@ fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
+    if let Err(e) = stokes::geometry::Isa::from_env() {
+        eprintln!("error: {e}");
+        std::process::exit(2);
+    }
     let set = ray_sets::load(&a[1]);
     let n: usize = a
         .get(2)
@@ -82,6 +87,7 @@ fn main() {
         .quality()
         .map_or(preset.clone(), |q| q.1.name().to_string());
     eprintln!("build {label} {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+    eprintln!("isa {}", accel.isa());
     let mut best = f64::INFINITY;
     let mut times = vec![];
     let mut chk = 0.0;

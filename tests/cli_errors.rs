@@ -370,3 +370,55 @@ fn earlier_output_survives_a_failed_run() {
     assert_eq!(std::fs::read(&out).unwrap(), before);
     assert!(Path::new(&out).exists());
 }
+
+/// `STOKES_ISA` forces an instruction set the CPU has; a value that is no instruction set, or
+/// one the CPU lacks, is refused before any work with a message naming the variable, and
+/// `stokes inspect` says which one is in use.
+#[test]
+fn forced_instruction_sets() {
+    use stokes::geometry::Isa;
+    let d = tmpdir("isa");
+    let scene = d.join("scene.json");
+    std::fs::write(&scene, GOOD).unwrap();
+    let s = scene.to_str().unwrap();
+    let stokes = |isa: &str, args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
+            .env("STOKES_ISA", isa)
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            out.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&out.stdout).to_string(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let o = d.join("o.exr");
+    let (code, _, err) = stokes(
+        "sse9",
+        &["render", s, "--spp", "1", "-o", o.to_str().unwrap()],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("STOKES_ISA=sse9") && err.contains("avx2"),
+        "{err}"
+    );
+    assert!(!o.exists() && !err.contains("panicked"), "{err}");
+    for isa in Isa::ALL {
+        let (code, out, err) = stokes(isa.name(), &["inspect", s]);
+        if isa.supported() {
+            assert_eq!(code, 0, "{err}");
+            let line = format!("instruction set: {isa}, forced by STOKES_ISA");
+            assert!(out.contains(&line), "{out}");
+        } else {
+            assert_eq!(code, 2, "{err}");
+            assert!(err.contains("does not support"), "{err}");
+        }
+    }
+    let (code, out, _) = stokes("", &["inspect", s]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains(&format!("instruction set: {} (", Isa::best())),
+        "{out}"
+    );
+}

@@ -863,3 +863,35 @@ fn no_function_is_longer_than_the_limit() {
         long.join("\n")
     );
 }
+
+/// The SIMD code (intrinsics, target features, CPU feature detection) stays in the BVH, whose
+/// instruction set is chosen once per process (`geometry/bvh/isa.rs`): everything above it is
+/// portable Rust.
+#[test]
+fn simd_stays_in_the_bvh() {
+    let bvh = Path::new("src").join("geometry").join("bvh");
+    let mut offenders = Vec::new();
+    for f in src_files() {
+        if f.starts_with(&bvh) {
+            continue;
+        }
+        for (n, line) in code(&f).iter().enumerate() {
+            if [
+                "std::arch",
+                "core::arch",
+                "target_feature",
+                "is_x86_feature_detected",
+            ]
+            .iter()
+            .any(|p| line.contains(p))
+            {
+                offenders.push(format!("{}:{}: {line}", f.display(), n + 1));
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "SIMD outside geometry/bvh:\n{}",
+        offenders.join("\n")
+    );
+}

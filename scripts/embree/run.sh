@@ -93,7 +93,7 @@ cargo build --release --quiet --example raybench || exit 1
 sbin=$target/release/examples/raybench
 # The AVX2 node visits must be inlined into the traversal loops (src/geometry/bvh/nodes.rs,
 # `WideNode::visit`); called out of line they cost about a fifth more instructions a ray.
-if command -v nm > /dev/null && nm "$sbin" | grep -q 'visit_\(full\|quantised\)_avx2'; then
+if command -v nm > /dev/null && nm "$sbin" | grep -q 'visit_\(full\|quantised\)_avx\(2\|512\)'; then
   echo "warning: $sbin calls the BVH node visits out of line; its speed is not representative" >&2
 fi
 
@@ -108,6 +108,7 @@ log=$target/embree-raybench.log
 : >"$log"
 echo "$(nproc) CPUs, load average: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log"
 declare -A emed smed sbuild squal ebuild echk schk ntris
+sisa=
 checks=()
 for ((r = 1; r <= rounds; r++)); do
   for s in "${sets[@]}"; do
@@ -139,11 +140,13 @@ for ((r = 1; r <= rounds; r++)); do
     sbuild[$s]+=" $(sed -n 's/^build [a-z_]* \([0-9.]*\) ms.*/\1/p' <<<"$out")"
     squal[$s]=$(sed -n 's/^build \([a-z_]*\) [0-9.]* ms.*/\1/p' <<<"$out")
     schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
+    sisa=$(sed -n 's/^isa //p' <<<"$out")
     echo "round $r: stokes $s median $m Mrays/s"
   done
 done
 
 echo
+echo "CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1); stokes instruction set: ${sisa:-unknown} (STOKES_ISA forces a lower one)"
 echo "Closest hit, 1 thread, Mrays/s (median over $rounds rounds of the median of $reps passes);"
 echo "build times in ms (median over rounds; Embree device threads=1, stokes on ${STOKES_BUILD_THREADS:-1} thread(s))"
 hdr=$(printf '%-10s %8s' "ray set" "tris")

@@ -45,6 +45,7 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
             ""
         }
     );
+    println!("{}", isa_line(s.accel.isa()));
     for (n, m) in s.material_names.iter().zip(&s.materials) {
         use crate::material::Bbrrdf;
         let kind = match m {
@@ -113,4 +114,21 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         );
     }
     Ok(())
+}
+
+/// The instruction set rays are traced with, whether `STOKES_ISA` chose it, and what the CPU
+/// has.
+pub(super) fn isa_line(isa: crate::geometry::Isa) -> String {
+    use crate::geometry::{ISA_VAR, Isa};
+    let forced = std::env::var(ISA_VAR).is_ok_and(|v| !v.trim().is_empty());
+    let available: Vec<_> = Isa::available().iter().map(|i| i.name()).collect();
+    format!(
+        "instruction set: {isa}{} (this CPU: {})",
+        if forced {
+            format!(", forced by {ISA_VAR}")
+        } else {
+            String::new()
+        },
+        available.join(", ")
+    )
 }

@@ -93,6 +93,8 @@ pub enum GmmCommand {
 
 /// Run a parsed command.
 pub fn run(command: Command) -> Result<(), Error> {
+    // An instruction set the user forces but cannot have is refused before any work.
+    crate::geometry::Isa::from_env().map_err(|e| Error::input(e.to_string()))?;
     match command {
         Command::Render(a) => render(&a),
         Command::Inspect { scene } => inspect(&scene),

@@ -457,6 +457,8 @@ pub fn stats_json(
     serde_json::json!({
         "integrator": kind.name(),
         "options": opts,
+        // the instruction set of the ray kernels (the scene's BVH is built with the process's)
+        "isa": crate::geometry::Isa::active().name(),
         "spp": out.film.spp,
         "width": out.film.width,
         "height": out.film.height,

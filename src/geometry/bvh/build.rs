@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::collapse::{Plan, collapse};
 use super::leaf::{Prim, TriBlock};
 use super::nodes::{FULL_NODES_MAX, Node8, QNode8};
-use super::{Accel, BuildQuality, Nodes, has_avx2};
+use super::{Accel, BuildQuality, Isa, Nodes};
 use crate::geometry::{Sphere, Triangle};
 
 impl Accel {
@@ -61,7 +61,7 @@ impl Accel {
                 n_spheres: 0,
                 stack_size: 0,
                 sah: [0.0; 2],
-                avx2: false,
+                isa: Isa::active(),
                 flat: Vec::new(),
                 quality: None,
                 build_seconds: 0.0,
@@ -141,7 +141,7 @@ impl Accel {
             n_spheres: spheres.len() as u32,
             stack_size: 7 * depth + 1,
             sah,
-            avx2: has_avx2(),
+            isa: Isa::active(),
             flat: Self::flat_blocks(triangles, spheres),
             quality: None,
             build_seconds: start.elapsed().as_secs_f64(),

@@ -3,6 +3,7 @@
 use glam::Vec3A;
 
 use super::Accel;
+use super::isa::ISA_AVX2;
 use super::nodes::{self, TRay};
 use crate::geometry::{Hit, Ray, Sphere, Triangle};
 
@@ -218,7 +219,7 @@ impl Accel {
     /// Test the lanes `lanes` (bits 0..8) of packet `b` against `r`: the mask of lanes hit in
     /// (0, t_max), their t, u, v in `tuv`. Spheres (in mixed scenes) are tested one by one.
     #[inline(always)]
-    pub(super) fn test_block<const MIXED: bool, const AVX: bool>(
+    pub(super) fn test_block<const MIXED: bool, const ISA: u8>(
         &self,
         b: usize,
         lanes: u32,
@@ -238,8 +239,8 @@ impl Accel {
         let mut hits = 0;
         if lanes & !spheres != 0 {
             #[cfg(target_arch = "x86_64")]
-            if AVX {
-                // SAFETY: AVX is only true on the AVX2 path (`has_avx2`).
+            if ISA >= ISA_AVX2 {
+                // SAFETY: `ISA` is only AVX2 or above on CPUs with AVX2 (`Isa::supported`).
                 hits = unsafe {
                     Self::flat_block(blk, None, r.o.to_array(), r.d.to_array(), t_max, Some(tuv))
                 };

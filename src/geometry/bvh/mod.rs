@@ -33,8 +33,9 @@
 //! collapses the binary BVH to 8-wide nodes, whose two layouts and visits are in `nodes.rs`;
 //! `traverse.rs` holds the closest-hit and any-hit traversal loops; `leaf.rs` the primitive
 //! records, the leaf packets and their intersection kernels (AVX2 and portable, and the
-//! brute-force reference); `flat.rs` the flat loops of tiny scenes; `tests.rs` the tests against
-//! brute force.
+//! brute-force reference); `flat.rs` the flat loops of tiny scenes; `isa.rs` the instruction set
+//! ([`Isa`]: AVX-512, AVX2 or portable, chosen once per process, `STOKES_ISA` forces a lower
+//! one); `tests.rs` the tests against brute force, on every instruction set the CPU has.
 
 use obvhs::BvhBuildParams;
 
@@ -43,10 +44,12 @@ use super::{Hit, Ray};
 mod build;
 mod collapse;
 mod flat;
+mod isa;
 mod leaf;
 mod nodes;
 mod traverse;
 use flat::FlatBlock;
+pub use isa::{ISA_VAR, Isa, IsaError};
 use leaf::TriBlock;
 pub use leaf::brute_force_intersect;
 use nodes::{Node8, QNode8};
@@ -143,13 +146,14 @@ pub struct Accel {
     n_spheres: u32,
     /// Upper bound on the traversal stack depth (7 entries per level).
     stack_size: usize,
-    /// Use the AVX2 traversal (detected at build time).
-    avx2: bool,
+    /// The instruction set of the kernels ([`Isa::active`] when built).
+    isa: Isa,
     /// The tree's node visits and packet tests per ray through the root box, in the
     /// surface-area model (`Collapsed::sah`).
     sah: [f64; 2],
-    /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 only): all triangles in original order,
-    /// tested with a flat 8-wide loop (faster than any traversal at this size).
+    /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 and AVX-512 only): all triangles in
+    /// original order, tested with a flat 8-wide loop (faster than any traversal at this
+    /// size).
     flat: Vec<FlatBlock>,
     /// The quality asked for and the one it was built with (`Medium` or `High`); `None` for
     /// explicit obvhs parameters. Then the build's wall time in seconds.
@@ -171,7 +175,23 @@ impl Accel {
 
     /// Whether rays are traced with the flat loop of tiny scenes instead of the BVH.
     pub fn is_flat(&self) -> bool {
-        !self.flat.is_empty()
+        !self.flat.is_empty() && self.isa >= Isa::Avx2
+    }
+
+    /// The instruction set rays are traced with.
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// Trace with `isa` from now on (for tests and timings; a build takes [`Isa::active`]).
+    /// Refused when the CPU lacks it.
+    #[doc(hidden)]
+    pub fn set_isa(&mut self, isa: Isa) -> Result<(), IsaError> {
+        if !isa.supported() {
+            return Err(IsaError::Unsupported(isa));
+        }
+        self.isa = isa;
+        Ok(())
     }
 
     /// The tree's cost in the surface-area model, for profiling: the node visits and the packet
@@ -224,16 +244,27 @@ impl Accel {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is only set when the CPU supports AVX2, FMA, POPCNT and BMI1.
-            return unsafe {
-                let (o, d) = (ray.o, ray.d);
-                if self.flat.is_empty() {
-                    self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
-                } else {
-                    self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+        {
+            let (o, d) = (ray.o, ray.d);
+            match (self.isa, self.flat.is_empty()) {
+                // SAFETY: `isa` is only set to an instruction set the CPU supports
+                // (`Isa::supported`).
+                (Isa::Avx512, true) => {
+                    return unsafe { self.intersect_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
                 }
-            };
+                (Isa::Avx512, false) => {
+                    return unsafe {
+                        self.intersect_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+                    };
+                }
+                (Isa::Avx2, true) => {
+                    return unsafe { self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
+                }
+                (Isa::Avx2, false) => {
+                    return unsafe { self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
+                }
+                (Isa::Portable, _) => {}
+            }
         }
         self.intersect_portable(ray, t_max)
     }
@@ -245,16 +276,26 @@ impl Accel {
             return false;
         }
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: see `intersect`.
-            return unsafe {
-                let (o, d) = (ray.o, ray.d);
-                if self.flat.is_empty() {
-                    self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
-                } else {
-                    self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+        {
+            let (o, d) = (ray.o, ray.d);
+            match (self.isa, self.flat.is_empty()) {
+                // SAFETY: see `intersect`.
+                (Isa::Avx512, true) => {
+                    return unsafe { self.occluded_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
                 }
-            };
+                (Isa::Avx512, false) => {
+                    return unsafe {
+                        self.occluded_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+                    };
+                }
+                (Isa::Avx2, true) => {
+                    return unsafe { self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
+                }
+                (Isa::Avx2, false) => {
+                    return unsafe { self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
+                }
+                (Isa::Portable, _) => {}
+            }
         }
         self.occluded_portable(ray, t_max)
     }
@@ -291,19 +332,6 @@ fn prefetch<T>(p: *const T, lines: usize) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (p, lines);
-}
-
-/// Whether the AVX2 traversal can be used on this CPU.
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-            && std::is_x86_feature_detected!("fma")
-            && std::is_x86_feature_detected!("popcnt")
-            && std::is_x86_feature_detected!("bmi1")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use std::mem::MaybeUninit;
 
+use super::isa::{ISA_AVX2, ISA_AVX512};
 use super::prefetch;
 use crate::geometry::Ray;
 
@@ -105,7 +106,7 @@ pub(super) trait WideNode {
     /// was called out of line, and soup100k took 2 072 instructions a ray instead of 1 644
     /// (docs/performance.md §1, "The node visits inlined again"). `#[inline(always)]` cannot be
     /// combined with `#[target_feature]` in stable Rust.
-    fn visit<const AVX: bool, const SITE: u8>(
+    fn visit<const ISA: u8, const SITE: u8>(
         &self,
         r: &TRay,
         t_max: f32,
@@ -120,17 +121,20 @@ pub(super) trait WideNode {
 
     /// Write the entries of the internal children in `inner` to `out`, in slot order and
     /// without gaps; all 8 entries are written (the rest repeat slot 0's and are not used).
-    /// Without branches on the mask where AVX2 is used.
+    /// Without branches on the mask where AVX2 or AVX-512 is used.
     #[inline(always)]
-    fn write_inner<const AVX: bool>(
+    fn write_inner<const ISA: u8>(
         &self,
         inner: u32,
         tmins: &[f32; 8],
         out: &mut [MaybeUninit<Entry>],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: `AVX` is only true on the AVX2 path.
+        if ISA >= ISA_AVX2 {
+            // SAFETY: `ISA` is only AVX2 or above on CPUs with AVX2. (AVX-512 packs with the
+            // same table: a `vpcompressq` over the 8 entries in one 512-bit register measured
+            // 0.94–0.99× on an AVX-512 Xeon, where any 512-bit instruction slows the 256-bit
+            // ones around it.)
             unsafe { write_packed_avx2(self.children_avx2(), inner, tmins, out) };
             return;
         }
@@ -236,7 +240,8 @@ impl Encode for Node8 {
 impl WideNode for Node8 {
     const LINES: usize = 4;
 
-    /// The first packet is not known without a look at the slots; these BVHs are small.
+    /// The first packet is not known without a look at the slots. (Keeping it in the node's
+    /// padding and fetching it here did not pay: soup100k 0.98× on an AVX-512 Xeon.)
     #[inline(always)]
     fn prefetch_leaves(&self, _blocks: *const u8) {}
 
@@ -262,15 +267,18 @@ impl WideNode for Node8 {
     /// The slab test per plane as p · (1/d) − o · (1/d) (one fused multiply-add), the near
     /// planes' maximum against the far planes' minimum.
     #[inline(always)]
-    fn visit<const AVX: bool, const SITE: u8>(
+    fn visit<const ISA: u8, const SITE: u8>(
         &self,
         r: &TRay,
         t_max: f32,
         tmin_out: &mut [f32; 8],
     ) -> Visit {
         #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
+        if ISA == ISA_AVX512 {
+            // SAFETY: `ISA` is only AVX-512 in code reached after checking for its support.
+            return unsafe { visit_full_avx512::<SITE>(self, r, t_max, tmin_out) };
+        } else if ISA >= ISA_AVX2 {
+            // SAFETY: `ISA` is only AVX2 in code reached after checking for AVX2 support.
             return unsafe { visit_full_avx2::<SITE>(self, r, t_max, tmin_out) };
         }
         let (o_inv, inv) = (r.o_inv.to_array(), r.inv_d.to_array());
@@ -301,10 +309,34 @@ impl WideNode for Node8 {
     }
 }
 
+/// The entry and exit distances of `$r` into the 8 child boxes of the full node `$node` (AVX2
+/// intrinsics; the AVX2 and AVX-512 visits share them, so the two compute the same bits). Each
+/// plane's distance is one fused multiply-subtract, p · (1/d) − o · (1/d): 2 % fewer
+/// instructions a ray on soup100k than (p − o) · (1/d), and 1.02–1.03× the speed
+/// (docs/performance.md §1).
+#[cfg(target_arch = "x86_64")]
+macro_rules! full_slabs {
+    ($node:expr, $r:expr, $t_max:expr) => {{
+        use std::arch::x86_64::*;
+        let [nx, fx, ny, fy, nz, fz] = $r.planes.map(|k| $node.planes[k].as_ptr());
+        let (oi, inv) = ($r.o_inv, $r.inv_d);
+        let t = |p: *const f32, oi: f32, inv: f32| {
+            _mm256_fmsub_ps(_mm256_loadu_ps(p), _mm256_set1_ps(inv), _mm256_set1_ps(oi))
+        };
+        let tmin = _mm256_max_ps(
+            _mm256_max_ps(t(nx, oi.x, inv.x), t(ny, oi.y, inv.y)),
+            _mm256_max_ps(t(nz, oi.z, inv.z), _mm256_setzero_ps()),
+        );
+        let tmax = _mm256_min_ps(
+            _mm256_min_ps(t(fx, oi.x, inv.x), t(fy, oi.y, inv.y)),
+            _mm256_min_ps(t(fz, oi.z, inv.z), _mm256_set1_ps($t_max)),
+        );
+        (tmin, tmax)
+    }};
+}
+
 /// AVX2 [`Node8::visit`]: the same operations, all 8 slots at once, no branches. One copy per
-/// `SITE` (`WideNode::visit`). Each plane's distance is one fused multiply-subtract,
-/// p · (1/d) − o · (1/d): 2 % fewer instructions a ray on soup100k than (p − o) · (1/d), and
-/// 1.02–1.03× the speed (docs/performance.md §1).
+/// `SITE` (`WideNode::visit`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
@@ -315,26 +347,39 @@ fn visit_full_avx2<const SITE: u8>(
     tmin_out: &mut [f32; 8],
 ) -> Visit {
     use std::arch::x86_64::*;
-    let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| node.planes[k].as_ptr());
-    let (oi, inv) = (r.o_inv, r.inv_d);
     // SAFETY: AVX2 and FMA are enabled for this function; every load reads one `[f32; 8]` or
     // `[u32; 8]` field of the node.
     unsafe {
-        let t = |p: *const f32, oi: f32, inv: f32| {
-            _mm256_fmsub_ps(_mm256_loadu_ps(p), _mm256_set1_ps(inv), _mm256_set1_ps(oi))
-        };
-        let tmin = _mm256_max_ps(
-            _mm256_max_ps(t(nx, oi.x, inv.x), t(ny, oi.y, inv.y)),
-            _mm256_max_ps(t(nz, oi.z, inv.z), _mm256_setzero_ps()),
-        );
-        let tmax = _mm256_min_ps(
-            _mm256_min_ps(t(fx, oi.x, inv.x), t(fy, oi.y, inv.y)),
-            _mm256_min_ps(t(fz, oi.z, inv.z), _mm256_set1_ps(t_max)),
-        );
+        let (tmin, tmax) = full_slabs!(node, r, t_max);
         _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
         let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
         // the sign bits of `child` are the leaf slots
         let leaf = _mm256_movemask_ps(_mm256_loadu_ps(node.child.as_ptr() as *const f32)) as u32;
+        Visit {
+            inner: hit & !leaf,
+            leaves: hit & leaf,
+        }
+    }
+}
+
+/// AVX-512 [`Node8::visit`]: the AVX2 visit's arithmetic, compared into mask registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+#[inline]
+fn visit_full_avx512<const SITE: u8>(
+    node: &Node8,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> Visit {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX-512 (F, VL, DQ), AVX2 and FMA are enabled for this function; every load
+    // reads one `[f32; 8]` or `[u32; 8]` field of the node.
+    unsafe {
+        let (tmin, tmax) = full_slabs!(node, r, t_max);
+        _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
+        let hit = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tmin, tmax) as u32;
+        let leaf = _mm256_movepi32_mask(_mm256_loadu_si256(node.child.as_ptr().cast())) as u32;
         Visit {
             inner: hit & !leaf,
             leaves: hit & leaf,
@@ -464,15 +509,18 @@ impl WideNode for QNode8 {
 
     /// t = q · (step / d) + (p − o) / d per plane (the CWBVH slab test), one fused multiply-add.
     #[inline(always)]
-    fn visit<const AVX: bool, const SITE: u8>(
+    fn visit<const ISA: u8, const SITE: u8>(
         &self,
         r: &TRay,
         t_max: f32,
         tmin_out: &mut [f32; 8],
     ) -> Visit {
         #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: `AVX` is only true in code reached after checking for AVX2 support.
+        if ISA == ISA_AVX512 {
+            // SAFETY: `ISA` is only AVX-512 in code reached after checking for its support.
+            return unsafe { visit_quantised_avx512::<SITE>(self, r, t_max, tmin_out) };
+        } else if ISA >= ISA_AVX2 {
+            // SAFETY: `ISA` is only AVX2 in code reached after checking for AVX2 support.
             return unsafe { visit_quantised_avx2::<SITE>(self, r, t_max, tmin_out) };
         }
         let adj_dir_inv = (self.step() * r.inv_d).to_array();
@@ -527,24 +575,16 @@ const INNER_RANK: [[u8; 8]; 256] = {
     t
 };
 
-/// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot. One
-/// copy per `SITE` (`WideNode::visit`). Each plane's distance is one fused multiply-add.
+/// The entry and exit distances of `$r` into the 8 child boxes of the quantised node `$node`
+/// (AVX2 intrinsics, shared by the AVX2 and AVX-512 visits): each plane's distance is one
+/// fused multiply-add.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-fn visit_quantised_avx2<const SITE: u8>(
-    node: &QNode8,
-    r: &TRay,
-    t_max: f32,
-    tmin_out: &mut [f32; 8],
-) -> Visit {
-    use std::arch::x86_64::*;
-    let adj_dir_inv = node.step() * r.inv_d;
-    let adj_orig = (Vec3A::from(node.p) - r.o) * r.inv_d;
-    let [nx, fx, ny, fy, nz, fz] = r.planes.map(|k| node.planes[k].as_ptr());
-    // SAFETY: AVX2 and FMA are enabled for this function; the 8-byte loads read one `[u8; 8]`
-    // field each.
-    unsafe {
+macro_rules! quantised_slabs {
+    ($node:expr, $r:expr, $t_max:expr) => {{
+        use std::arch::x86_64::*;
+        let adj_dir_inv = $node.step() * $r.inv_d;
+        let adj_orig = (Vec3A::from($node.p) - $r.o) * $r.inv_d;
+        let [nx, fx, ny, fy, nz, fz] = $r.planes.map(|k| $node.planes[k].as_ptr());
         let q = |p: *const u8| {
             _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(p as *const __m128i)))
         };
@@ -563,12 +603,58 @@ fn visit_quantised_avx2<const SITE: u8>(
                 t(fx, adj_dir_inv.x, adj_orig.x),
                 t(fy, adj_dir_inv.y, adj_orig.y),
             ),
-            _mm256_min_ps(t(fz, adj_dir_inv.z, adj_orig.z), _mm256_set1_ps(t_max)),
+            _mm256_min_ps(t(fz, adj_dir_inv.z, adj_orig.z), _mm256_set1_ps($t_max)),
         );
+        (tmin, tmax)
+    }};
+}
+
+/// AVX2 [`QNode8::visit`]: the same operations, all 8 slots at once, no branch per slot. One
+/// copy per `SITE` (`WideNode::visit`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn visit_quantised_avx2<const SITE: u8>(
+    node: &QNode8,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> Visit {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX2 and FMA are enabled for this function; the 8-byte loads read one `[u8; 8]`
+    // field each.
+    unsafe {
+        let (tmin, tmax) = quantised_slabs!(node, r, t_max);
         _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
         let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32;
         // the top bits of `meta` are the leaf slots
         let leaf = _mm_movemask_epi8(_mm_loadl_epi64(node.meta.as_ptr() as *const __m128i)) as u32;
+        Visit {
+            inner: hit & node.imask as u32,
+            leaves: hit & leaf & 0xff,
+        }
+    }
+}
+
+/// AVX-512 [`QNode8::visit`]: the AVX2 visit's arithmetic, compared into mask registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512bw,avx2,fma")]
+#[inline]
+fn visit_quantised_avx512<const SITE: u8>(
+    node: &QNode8,
+    r: &TRay,
+    t_max: f32,
+    tmin_out: &mut [f32; 8],
+) -> Visit {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX-512 (F, VL, BW), AVX2 and FMA are enabled for this function; the 8-byte
+    // loads read one `[u8; 8]` field each.
+    unsafe {
+        let (tmin, tmax) = quantised_slabs!(node, r, t_max);
+        _mm256_storeu_ps(tmin_out.as_mut_ptr(), tmin);
+        let hit = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tmin, tmax) as u32;
+        // the top bits of `meta` are the leaf slots
+        let leaf = _mm_movepi8_mask(_mm_loadl_epi64(node.meta.as_ptr() as *const __m128i)) as u32;
         Visit {
             inner: hit & node.imask as u32,
             leaves: hit & leaf & 0xff,

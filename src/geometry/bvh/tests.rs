@@ -55,23 +55,20 @@ fn check(tris: &[Triangle], spheres: &[Sphere], n_rays: usize, seed: u64) {
 /// Built at quality `q`, in both layouts and both traversals: brute force's hits.
 fn check_quality(q: BuildQuality, tris: &[Triangle], spheres: &[Sphere], n_rays: usize, seed: u64) {
     let mut rng = Pcg64::seed_from_u64(seed);
-    let accel = Accel::build_quality(tris, spheres, q);
+    let mut accel = Accel::build_quality(tris, spheres, q);
     assert_eq!(accel.num_primitives(), tris.len() + spheres.len());
-    // Both node layouts, and the portable traversal, must agree with the AVX2 one where
-    // both exist.
-    let layout = |full: bool, avx2: bool| {
+    // Both node layouts, on every instruction set this CPU has, must agree with the default
+    // build and layout (the best instruction set: the flat loop of tiny scenes with AVX2 or
+    // AVX-512).
+    let layout = |full: bool| {
         // the default build's parameters, so that ties among coincident primitives break
         // alike
         let params = q.params(tris.len() + spheres.len());
-        let mut a = Accel::build_with_layout(tris, spheres, params, true, Some(full));
-        a.avx2 &= avx2;
-        a
+        Accel::build_with_layout(tris, spheres, params, true, Some(full))
     };
-    let others = [
-        layout(false, true),
-        layout(true, false),
-        layout(false, false),
-    ];
+    let (mut quantised, mut full) = (layout(false), layout(true));
+    let isas = Isa::available();
+    assert!(isas.contains(&Isa::Portable) && isas.contains(&accel.isa()));
     let mut hits = 0;
     for k in 0..n_rays {
         // Mix of rays from outside, rays from inside spheres, and short rays.
@@ -133,25 +130,38 @@ fn check_quality(q: BuildQuality, tris: &[Triangle], spheres: &[Sphere], n_rays:
             }
             (a, b) => panic!("ray {k} ({what}): brute force {a:?}, bvh {b:?}"),
         };
+        accel.set_isa(Isa::best()).unwrap();
         let got = accel.intersect(&ray, t_max);
         hits += got.is_some() as usize;
         verify(got, "default");
-        let quantised = others[0].intersect(&ray, t_max);
-        verify(quantised, "quantised nodes");
-        // the portable traversal takes the AVX2 one's path exactly
+        quantised.set_isa(Isa::best()).unwrap();
+        let q_best = quantised.intersect(&ray, t_max);
+        verify(q_best, "quantised nodes");
+        // every other instruction set takes the best one's path exactly
         let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
-        assert_eq!(key(others[1].intersect(&ray, t_max)), key(got), "ray {k}");
-        assert_eq!(
-            key(others[2].intersect(&ray, t_max)),
-            key(quantised),
-            "ray {k}"
-        );
-        for (j, a) in std::iter::once(&accel).chain(&others).enumerate() {
+        for &isa in &isas {
+            for a in [&mut accel, &mut quantised, &mut full] {
+                a.set_isa(isa).unwrap();
+            }
             assert_eq!(
-                a.occluded(&ray, t_max),
-                bf.is_some(),
-                "ray {k} ({j}): occlusion"
+                key(accel.intersect(&ray, t_max)),
+                key(got),
+                "ray {k} ({isa})"
             );
+            assert_eq!(
+                key(full.intersect(&ray, t_max)),
+                key(got),
+                "ray {k} ({isa}, full)"
+            );
+            let q = quantised.intersect(&ray, t_max);
+            assert_eq!(key(q), key(q_best), "ray {k} ({isa}, quantised)");
+            for (j, a) in [&accel, &quantised, &full].into_iter().enumerate() {
+                assert_eq!(
+                    a.occluded(&ray, t_max),
+                    bf.is_some(),
+                    "ray {k} ({isa}, {j}): occlusion"
+                );
+            }
         }
     }
     if n_rays > 100 && tris.len() + spheres.len() > 10 {
@@ -487,4 +497,28 @@ fn both_sides_and_barycentrics() {
 fn send_sync() {
     fn is<T: Send + Sync>() {}
     is::<Accel>();
+}
+
+#[test]
+fn instruction_set_names_and_errors() {
+    for isa in Isa::ALL {
+        assert_eq!(Isa::parse(isa.name()), Some(isa));
+    }
+    assert_eq!(Isa::parse("AVX2"), None);
+    assert!(Isa::Portable.supported());
+    assert_eq!(Isa::available()[0], Isa::best());
+    // best first, and each set implies the ones below it
+    let a = Isa::available();
+    assert!(a.windows(2).all(|w| w[0] > w[1]));
+    assert_eq!(a.len(), 1 + Isa::best() as usize);
+    let e = IsaError::Unknown("avx9".into()).to_string();
+    assert!(
+        e.contains("STOKES_ISA=avx9") && e.contains("avx512, avx2, portable"),
+        "{e}"
+    );
+    let e = IsaError::Unsupported(Isa::Avx512).to_string();
+    assert!(
+        e.contains("does not support avx512") && e.contains("portable"),
+        "{e}"
+    );
 }

@@ -1,7 +1,9 @@
-//! The closest-hit and any-hit traversal loops over the wide nodes, portable and AVX2.
+//! The closest-hit and any-hit traversal loops over the wide nodes: portable, AVX2 and AVX-512
+//! (one generic loop each, compiled once per instruction set).
 
 use std::mem::MaybeUninit;
 
+use super::isa::{ISA_AVX2, ISA_AVX512, ISA_PORTABLE};
 use super::nodes::{Entry, Node8, QNode8, TRay, Visit, WideNode};
 #[cfg(feature = "bvh-stats")]
 use super::stats;
@@ -51,7 +53,7 @@ impl Accel {
     /// would be paid by every ray of the AVX2 paths too.
     #[inline(never)]
     pub(super) fn intersect_portable(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        self.intersect_dispatch::<false>(ray, t_max)
+        self.intersect_dispatch::<ISA_PORTABLE>(ray, t_max)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -69,19 +71,38 @@ impl Accel {
     ) -> Option<Hit> {
         // the ray in registers, as for `intersect_flat`
         let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.intersect_dispatch::<true>(&ray, t_max)
+        self.intersect_dispatch::<ISA_AVX2>(&ray, t_max)
+    }
+
+    /// [`Self::intersect_avx2`] compiled for AVX-512: the same loop with the AVX-512 node
+    /// visits, stack pushes and packet tests (and EVEX encodings, 32 vector registers).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn intersect_avx512(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
+        self.intersect_dispatch::<ISA_AVX512>(&ray, t_max)
     }
 
     #[inline(always)]
-    fn intersect_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+    fn intersect_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         match &self.nodes {
-            Nodes::Full(n) => self.intersect_stack::<Node8, AVX>(n, ray, t_max),
-            Nodes::Quantised(n) => self.intersect_stack::<QNode8, AVX>(n, ray, t_max),
+            Nodes::Full(n) => self.intersect_stack::<Node8, ISA>(n, ray, t_max),
+            Nodes::Quantised(n) => self.intersect_stack::<QNode8, ISA>(n, ray, t_max),
         }
     }
 
     #[inline(always)]
-    fn intersect_stack<N: WideNode, const AVX: bool>(
+    fn intersect_stack<N: WideNode, const ISA: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -92,14 +113,14 @@ impl Accel {
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.intersect_impl::<N, false, AVX, 0>(nodes, ray, t_max, &mut stack)
+                self.intersect_impl::<N, false, ISA, 0>(nodes, ray, t_max, &mut stack)
             } else {
-                self.intersect_impl::<N, true, AVX, 1>(nodes, ray, t_max, &mut stack)
+                self.intersect_impl::<N, true, ISA, 1>(nodes, ray, t_max, &mut stack)
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
-            self.intersect_impl::<N, true, AVX, 2>(nodes, ray, t_max, &mut stack)
+            self.intersect_impl::<N, true, ISA, 2>(nodes, ray, t_max, &mut stack)
         }
     }
 
@@ -107,7 +128,7 @@ impl Accel {
     /// children are visited nearest first (sorted by entry distance), and popped entries farther
     /// than the current hit are skipped.
     #[inline(always)]
-    fn intersect_impl<N: WideNode, const MIXED: bool, const AVX: bool, const SITE: u8>(
+    fn intersect_impl<N: WideNode, const MIXED: bool, const ISA: u8, const SITE: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -134,12 +155,12 @@ impl Accel {
             let Visit {
                 inner: inner_hits,
                 leaves,
-            } = node.visit::<AVX, SITE>(&r, t_best, &mut tmins);
+            } = node.visit::<ISA, SITE>(&r, t_best, &mut tmins);
             // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
             // load while the leaves are tested.
             let n_inner = inner_hits.count_ones() as usize;
             if n_inner > 0 {
-                node.write_inner::<AVX>(inner_hits, &tmins, &mut stack[sp..sp + 8]);
+                node.write_inner::<ISA>(inner_hits, &tmins, &mut stack[sp..sp + 8]);
                 // the first two (all 8 entries are written; a prefetch never faults)
                 for k in 0..2 {
                     // SAFETY: written just above.
@@ -154,7 +175,7 @@ impl Accel {
                 node.leaf_packets(leaves, |b, lanes| {
                     #[cfg(feature = "bvh-stats")]
                     stats::count(1, lanes.count_ones() as u64);
-                    let h = self.test_block::<MIXED, AVX>(b, lanes, &r, t_best, &mut tuv);
+                    let h = self.test_block::<MIXED, ISA>(b, lanes, &r, t_best, &mut tuv);
                     if h != 0 {
                         // every hit is nearer than t_best; one hit is the common case
                         let l = if h & (h - 1) == 0 {
@@ -211,7 +232,7 @@ impl Accel {
     /// See [`Self::intersect_portable`].
     #[inline(never)]
     pub(super) fn occluded_portable(&self, ray: &Ray, t_max: f32) -> bool {
-        self.occluded_dispatch::<false>(ray, t_max)
+        self.occluded_dispatch::<ISA_PORTABLE>(ray, t_max)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -229,19 +250,37 @@ impl Accel {
     ) -> bool {
         // the ray in registers, as for `intersect_flat`
         let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.occluded_dispatch::<true>(&ray, t_max)
+        self.occluded_dispatch::<ISA_AVX2>(&ray, t_max)
+    }
+
+    /// [`Self::occluded_avx2`] compiled for AVX-512, as [`Self::intersect_avx512`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn occluded_avx512(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        t_max: f32,
+    ) -> bool {
+        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
+        self.occluded_dispatch::<ISA_AVX512>(&ray, t_max)
     }
 
     #[inline(always)]
-    fn occluded_dispatch<const AVX: bool>(&self, ray: &Ray, t_max: f32) -> bool {
+    fn occluded_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> bool {
         match &self.nodes {
-            Nodes::Full(n) => self.occluded_stack::<Node8, AVX>(n, ray, t_max),
-            Nodes::Quantised(n) => self.occluded_stack::<QNode8, AVX>(n, ray, t_max),
+            Nodes::Full(n) => self.occluded_stack::<Node8, ISA>(n, ray, t_max),
+            Nodes::Quantised(n) => self.occluded_stack::<QNode8, ISA>(n, ray, t_max),
         }
     }
 
     #[inline(always)]
-    fn occluded_stack<N: WideNode, const AVX: bool>(
+    fn occluded_stack<N: WideNode, const ISA: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -251,20 +290,20 @@ impl Accel {
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.occluded_impl::<N, false, AVX, 3>(nodes, ray, t_max, &mut stack)
+                self.occluded_impl::<N, false, ISA, 3>(nodes, ray, t_max, &mut stack)
             } else {
-                self.occluded_impl::<N, true, AVX, 4>(nodes, ray, t_max, &mut stack)
+                self.occluded_impl::<N, true, ISA, 4>(nodes, ray, t_max, &mut stack)
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
-            self.occluded_impl::<N, true, AVX, 5>(nodes, ray, t_max, &mut stack)
+            self.occluded_impl::<N, true, ISA, 5>(nodes, ray, t_max, &mut stack)
         }
     }
 
     /// Any-hit traversal: no ordering, exit on the first hit.
     #[inline(always)]
-    fn occluded_impl<N: WideNode, const MIXED: bool, const AVX: bool, const SITE: u8>(
+    fn occluded_impl<N: WideNode, const MIXED: bool, const ISA: u8, const SITE: u8>(
         &self,
         nodes: &[N],
         ray: &Ray,
@@ -280,7 +319,7 @@ impl Accel {
             // SAFETY: see `intersect_impl`.
             let node = unsafe { nodes.get_unchecked(cur as usize) };
             node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
-            let Visit { inner, leaves } = node.visit::<AVX, SITE>(&r, t_max, &mut tmins);
+            let Visit { inner, leaves } = node.visit::<ISA, SITE>(&r, t_max, &mut tmins);
             // inner children on the stack in slot order; the last one is visited next
             let mut m = inner;
             for k in 0..inner.count_ones() as usize {
@@ -291,7 +330,7 @@ impl Accel {
             }
             sp += inner.count_ones() as usize;
             let hit = |b: usize, lanes: u32| {
-                self.test_block::<MIXED, AVX>(b, lanes, &r, t_max, &mut tuv) != 0
+                self.test_block::<MIXED, ISA>(b, lanes, &r, t_max, &mut tuv) != 0
             };
             if leaves != 0 && node.leaf_packets(leaves, hit) {
                 return true;
