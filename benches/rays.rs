@@ -10,7 +10,8 @@
 //! The groups `build` and `closest_hit_quality` time the two BVH build qualities on soup100k
 //! (`accel.quality` `medium` and `high`; docs/performance.md §1): the build, and 1-thread
 //! closest hits on each tree. `build` also times the default build of the generated 1M sets on
-//! 1 and 2 threads.
+//! 1 and 2 threads. `closest_hit_isa` times every instruction set this CPU has (AVX-512, AVX2,
+//! portable; `Accel::set_isa`) on cbox, soup100k and the 1M sets, 1 thread.
 
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
@@ -19,13 +20,24 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Duration;
-use stokes::geometry::{Accel, BuildQuality};
+use stokes::geometry::{Accel, BuildQuality, Isa};
 
 // The allocator of the `stokes` binary (src/main.rs), so that these figures are its figures.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 const CHUNK: usize = 1024;
+
+/// The sum of the closest hits' t over `rays`, one thread.
+fn closest_hits(accel: &Accel, rays: &[stokes::geometry::Ray]) -> f64 {
+    rays.iter()
+        .map(|r| {
+            accel
+                .intersect(r, f32::INFINITY)
+                .map_or(0.0, |h| h.t as f64)
+        })
+        .sum()
+}
 
 fn bench_rays(c: &mut Criterion) {
     let mut sets = vec!["cbox", "soup100k"];
@@ -52,6 +64,35 @@ fn bench_rays(c: &mut Criterion) {
     }
     bench_quality(c);
     bench_build_1m(c, &sets);
+    bench_isa(c, &sets);
+}
+
+/// Closest hits, 1 thread, with each instruction set the CPU has (the portable path on cbox and
+/// soup100k only: it is several times slower).
+fn bench_isa(c: &mut Criterion, sets: &[&str]) {
+    let mut group = c.benchmark_group("closest_hit_isa");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_secs(1));
+    group.measurement_time(Duration::from_secs(3));
+    for &name in sets
+        .iter()
+        .filter(|n| ["cbox", "soup100k", "soup1m", "sphere1m", "grid1m"].contains(n))
+    {
+        let set = ray_sets::load(name);
+        let mut accel = Accel::build(&set.tris, &[]);
+        group.throughput(Throughput::Elements(set.rays.len() as u64));
+        for isa in Isa::available() {
+            if isa == Isa::Portable && name.ends_with("1m") {
+                continue;
+            }
+            accel.set_isa(isa).unwrap();
+            let accel = &accel;
+            group.bench_function(format!("{name}/{isa}"), |b| {
+                b.iter(|| black_box(closest_hits(accel, &set.rays)))
+            });
+        }
+    }
+    group.finish();
 }
 
 /// The default (medium) build of the generated 1M-triangle sets on 1 and 2 worker threads (the
@@ -103,15 +144,7 @@ fn bench_quality(c: &mut Criterion) {
             s.ties
         );
         group.bench_function(format!("soup100k/{}", q.name()), |b| {
-            b.iter(|| {
-                let mut sum = 0.0f64;
-                for r in &set.rays {
-                    sum += accel
-                        .intersect(r, f32::INFINITY)
-                        .map_or(0.0, |h| h.t as f64);
-                }
-                black_box(sum)
-            })
+            b.iter(|| black_box(closest_hits(&accel, &set.rays)))
         });
     }
     group.finish();

@@ -199,3 +199,53 @@ impl SpectralCache {
         }
     }
 }
+
+/// The wavelength pdfs [p_c, P_c, p_l, P_l] of each sub-path vertex (eqs. 6.6–6.8) at the
+/// wavelength pair and shift they were last evaluated at, for `evaluate::fill_pdfs`: a path of
+/// k vertices has about k²/2 connections, each needing the pdfs of its k − 2 interior vertices,
+/// and a vertex's pdfs depend only on its material or medium and on (λ_i, λ(i−1), shift). The
+/// memo returns the very values computed.
+#[derive(Clone, Debug, Default)]
+pub struct VertexPdfMemo {
+    cam: Vec<Option<(u64, bool, [f64; 4])>>,
+    light: Vec<Option<(u64, bool, [f64; 4])>>,
+}
+
+impl VertexPdfMemo {
+    /// Forget both sub-paths (new ones were traced).
+    #[inline]
+    pub fn invalidate(&mut self) {
+        self.cam.clear();
+        self.light.clear();
+    }
+
+    /// The pdfs of vertex `j` of the camera (or `light`) sub-path at (`lambda_in`,
+    /// `lambda_out`, `shifted`): remembered, or `eval()` (whose `None` is not remembered).
+    #[inline]
+    pub fn get(
+        &mut self,
+        light: bool,
+        j: usize,
+        (lambda_in, lambda_out, shifted): (f32, f32, bool),
+        eval: impl FnOnce() -> Option<[f64; 4]>,
+    ) -> Option<[f64; 4]> {
+        let memo = if light {
+            &mut self.light
+        } else {
+            &mut self.cam
+        };
+        let key = LambdaKey::pair(lambda_in, lambda_out);
+        if let Some(Some((k, sh, p))) = memo.get(j)
+            && *k == key
+            && *sh == shifted
+        {
+            return Some(*p);
+        }
+        let p = eval()?;
+        if memo.len() <= j {
+            memo.resize(j + 1, None);
+        }
+        memo[j] = Some((key, shifted, p));
+        Some(p)
+    }
+}

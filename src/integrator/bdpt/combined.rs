@@ -275,7 +275,7 @@ impl Bdpt {
                 break;
             }
             f *= tr as f64;
-            fill_pdfs(self, scene, path, s, t);
+            fill_pdfs(self, scene, path, (s, t), &mut scratch.pdf_memo);
             // the technique's own pdf (eq. 6.14); a zero, NaN or infinite one is a lost
             // contribution, as in `evaluate::connect_full`
             let p = path.strategy_pdf(s, mode);
@@ -285,7 +285,8 @@ impl Bdpt {
             }
             let p_mis = if media {
                 f *= super::media::flight_weight(scene, path, s, sampler);
-                super::media::distance_pdfs(scene, path, self.tracking);
+                let (cam, light) = (&scratch.cam_log, &scratch.light_log);
+                super::media::distance_pdfs(scene, path, self.tracking, cam, light);
                 path.fold_distances();
                 path.strategy_pdf(s, mode)
             } else {

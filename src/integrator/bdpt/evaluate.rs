@@ -161,7 +161,13 @@ pub(super) fn measurement_cached(
 }
 
 /// Fill the directional and wavelength pdfs of the path for MIS (eqs. 6.3, 6.4–6.8).
-pub(super) fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, t: usize) {
+pub(super) fn fill_pdfs(
+    b: &Bdpt,
+    scene: &Scene,
+    path: &mut FullPath,
+    (s, t): (usize, usize),
+    memo: &mut super::cache::VertexPdfMemo,
+) {
     let k = path.k;
     let FullPath {
         v,
@@ -209,8 +215,17 @@ pub(super) fn fill_pdfs(b: &Bdpt, scene: &Scene, path: &mut FullPath, s: usize, 
     for i in 1..=k.saturating_sub(2) {
         let x = &v[i];
         let p = if x.fluorescent {
-            let (lambda_in, lambda_out, shifted) = (lambda[i], lambda[i - 1], shift[i]);
-            with_spectrum!(scene, x, m => wavelength_pdfs(m, lambda_in, lambda_out, shifted, b.shift), else continue)
+            let pair = (lambda[i], lambda[i - 1], shift[i]);
+            // vertex i is the camera sub-path's x_i or the light sub-path's y(k−1−i)
+            let (side, j) = if i < s { (false, i) } else { (true, k - 1 - i) };
+            let eval = || {
+                let (lambda_in, lambda_out, shifted) = pair;
+                with_spectrum!(scene, x, m => Some(wavelength_pdfs(m, lambda_in, lambda_out, shifted, b.shift)), else None)
+            };
+            match memo.get(side, j, pair, eval) {
+                Some(p) => p,
+                None => continue,
+            }
         } else if x.scatters() {
             NO_SHIFT
         } else {
@@ -419,7 +434,7 @@ impl Bdpt {
                 f *= tr.at(path.lambda[s - 1]) as f64;
             }
         }
-        fill_pdfs(self, scene, path, s, t);
+        fill_pdfs(self, scene, path, (s, t), &mut scratch.pdf_memo);
         // The strategy's own directional and wavelength pdf (eq. 6.14). This strategy has just
         // sampled the path and the path carries light, so a zero, NaN or infinite pdf is a lost
         // contribution, not a path the strategy cannot make: counted (docs/bdpt.md).
@@ -431,7 +446,8 @@ impl Bdpt {
         // Media: the sampled free flights' weights, and their pdfs in the MIS weights.
         let p_mis = if media {
             f *= super::media::flight_weight(scene, path, s, sampler);
-            super::media::distance_pdfs(scene, path, self.tracking);
+            let (cam, light) = (&scratch.cam_log, &scratch.light_log);
+            super::media::distance_pdfs(scene, path, self.tracking, cam, light);
             path.fold_distances();
             path.strategy_pdf(s, self.mode)
         } else {
@@ -535,9 +551,10 @@ pub(crate) fn connect_for_test(
         let mut rays = 0;
         super::media::connection(scene, &mut path, s, b.tracking, &mut rays, sampler)?;
     }
-    fill_pdfs(b, scene, &mut path, s, t);
+    fill_pdfs(b, scene, &mut path, (s, t), &mut Default::default());
     if scene.has_media {
-        super::media::distance_pdfs(scene, &mut path, b.tracking);
+        let (cam, light) = (&scratch.cam_log, &scratch.light_log);
+        super::media::distance_pdfs(scene, &mut path, b.tracking, cam, light);
         path.fold_distances();
     }
     Some(path)

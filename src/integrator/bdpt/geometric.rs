@@ -38,6 +38,10 @@ pub struct SegmentLog {
     pub stretches: Vec<Stretch>,
     /// The first stretch of the segment being traced.
     open: u32,
+    /// Per segment, its free-flight pdfs in full-path order (forward, reverse) at the
+    /// wavelength whose bits are given, once a connection has computed them: every later
+    /// connection through the segment at that wavelength reuses them (`media::distance_pdfs`).
+    pub pdfs: std::cell::RefCell<Vec<Option<(u32, f64, f64)>>>,
 }
 
 impl SegmentLog {
@@ -46,6 +50,7 @@ impl SegmentLog {
         self.segs.push(Segment::default());
         self.stretches.clear();
         self.open = 0;
+        self.pdfs.get_mut().clear();
     }
 
     /// Add a stretch of `len` along `ray` in `medium` to the segment being traced.

@@ -12,7 +12,7 @@
 //! they still sum to 1.
 
 use super::geometric::SegmentLog;
-use super::mis::FullPath;
+use super::mis::{FullPath, SegmentSource};
 use super::subpath::Vertex;
 use crate::integrator::Sampler;
 use crate::medium::Tracking;
@@ -33,6 +33,7 @@ pub fn gather(
 ) {
     let k = path.k;
     path.seg.clear();
+    path.seg_source.clear();
     path.stretches.clear();
     path.media.clear();
     for i in 0..k {
@@ -58,11 +59,15 @@ pub fn gather(
             let seg = cam.segs[i + 1];
             path.stretches
                 .extend_from_slice(seg.stretches(&cam.stretches));
+            path.seg_source.push(SegmentSource::Camera(i as u32 + 1));
             seg
         } else if i + 1 == s || fresh {
+            path.seg_source.push(SegmentSource::Connection);
             Segment::default()
         } else {
             // light segment x(i+1) → x_i, stored at light vertex k−2−i + 1
+            path.seg_source
+                .push(SegmentSource::Light((k - 1 - i) as u32));
             let seg = light.segs[k - 1 - i];
             let st = seg.stretches(&light.stretches);
             path.stretches.extend(st.iter().rev().map(|x| x.reversed()));
@@ -165,18 +170,46 @@ pub fn connection(
 }
 
 /// The free-flight pdfs of every segment at the path's final wavelengths in both directions
-/// (`dist_fwd`, `dist_rev`), for the MIS weights.
-pub fn distance_pdfs(scene: &Scene, path: &mut FullPath, mode: Tracking) {
+/// (`dist_fwd`, `dist_rev`), for the MIS weights. A sub-path segment's pdfs at a wavelength are
+/// computed once per sample and kept in its log (`cam`, `light`): a path of k vertices has about
+/// k²/2 connections, each needing the pdfs of its k − 1 segments, and without the memo their
+/// exponentials and spectral coefficients took over half of a dense medium's BDPT sample
+/// (docs/performance.md §3, "Dense media"). The memo returns the very values computed.
+pub fn distance_pdfs(
+    scene: &Scene,
+    path: &mut FullPath,
+    mode: Tracking,
+    cam: &SegmentLog,
+    light: &SegmentLog,
+) {
     for i in 0..path.k - 1 {
+        let lambda = path.lambda[i];
+        let log = match path.seg_source[i] {
+            SegmentSource::Camera(j) => Some((cam, j as usize)),
+            SegmentSource::Light(j) => Some((light, j as usize)),
+            SegmentSource::Connection => None,
+        };
+        if let Some((log, j)) = log
+            && let Some(Some((bits, fwd, rev))) = log.pdfs.borrow().get(j)
+            && *bits == lambda.to_bits()
+        {
+            (path.dist_fwd[i], path.dist_rev[i]) = (*fwd, *rev);
+            continue;
+        }
         let seg = path.seg[i];
         let st = seg.stretches(&path.stretches);
-        let lambda = path.lambda[i];
         let end = path.v[i + 1].kind == VertexKind::Medium;
         let start = path.v[i].kind == VertexKind::Medium;
-        path.dist_fwd[i] =
-            distance_pdf(scene, st, false, end, seg.far_end, lambda, false, mode) as f64;
-        path.dist_rev[i] =
-            distance_pdf(scene, st, true, start, seg.far_start, lambda, true, mode) as f64;
+        let fwd = distance_pdf(scene, st, false, end, seg.far_end, lambda, false, mode) as f64;
+        let rev = distance_pdf(scene, st, true, start, seg.far_start, lambda, true, mode) as f64;
+        (path.dist_fwd[i], path.dist_rev[i]) = (fwd, rev);
+        if let Some((log, j)) = log {
+            let mut memo = log.pdfs.borrow_mut();
+            if memo.len() <= j {
+                memo.resize(j + 1, None);
+            }
+            memo[j] = Some((lambda.to_bits(), fwd, rev));
+        }
     }
 }
 

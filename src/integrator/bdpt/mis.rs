@@ -52,8 +52,21 @@ pub struct FullPath {
     /// `pa_fwd[i+1]`) and from x(i+1) (light direction, part of `pa_rev[i]`).
     pub dist_fwd: Vec<f64>,
     pub dist_rev: Vec<f64>,
+    /// Media scenes: where `seg[i]` comes from ([`SegmentSource`]), for the memo of its
+    /// free-flight pdfs.
+    pub seg_source: Vec<SegmentSource>,
     /// Work arrays of the O(k) MIS sums, reused between connections.
     products: RefCell<Products>,
+}
+
+/// Where a full path's segment comes from: the camera or light sub-path's segment arriving at
+/// its vertex `j` (the light one turned around), or the connection (and a fresh light point's
+/// empty segments), which is new for every connection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SegmentSource {
+    Camera(u32),
+    Light(u32),
+    Connection,
 }
 
 /// Work arrays of `FullPath::strategy_pdfs`: prefix or suffix products, and p(ŝ) at index ŝ − 1.
@@ -88,6 +101,7 @@ impl FullPath {
             media: Vec::with_capacity(n),
             dist_fwd: vec![1.0; n],
             dist_rev: vec![1.0; n],
+            seg_source: Vec::with_capacity(n),
             products: RefCell::default(),
         }
     }

@@ -81,6 +81,8 @@ pub struct Scratch {
     /// The measurement factors each sub-path fixes (`cache`).
     pub(crate) cam_cache: cache::SubpathCache,
     pub(crate) light_cache: cache::SubpathCache,
+    /// The sub-path vertices' wavelength pdfs at the wavelengths last seen (`fill_pdfs`).
+    pub(crate) pdf_memo: cache::VertexPdfMemo,
     /// f_λ of the materials at the wavelengths last seen (the walks and the connections).
     pub(crate) spectral: cache::SpectralCache,
     /// The light sub-path in path order (reversed), whose tails the connections copy.
@@ -217,6 +219,7 @@ impl Bdpt {
             light_subpath(scene, n, mode, how(light_stop), (sampler, stats), light);
         scratch.cam_cache.invalidate();
         scratch.light_cache.invalidate();
+        scratch.pdf_memo.invalidate();
         scratch.prefix = 0;
         scratch.light_rev.clear();
         scratch.light_rev.extend(scratch.light.iter().rev());
@@ -313,6 +316,7 @@ impl Integrator for Bdpt {
             cam_log: SegmentLog::default(),
             light_log: SegmentLog::default(),
             cam_cache: cache::SubpathCache::default(),
+            pdf_memo: cache::VertexPdfMemo::default(),
             light_cache: cache::SubpathCache::default(),
             spectral: cache::SpectralCache::new(scene),
             light_rev: Vec::with_capacity(n),
