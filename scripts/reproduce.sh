@@ -3,7 +3,7 @@
 # and analyses of the papers' figures that are single images (results/reproduction/), the data
 # plots (examples/paper_plots/) and Hua 2022's colour evaluation.
 #
-#   scripts/reproduce.sh                  everything (about two hours on 2 cores)
+#   scripts/reproduce.sh                  everything (about two and a half hours on 2 cores)
 #   scripts/reproduce.sh --quick          the same at 64x48 and a few spp (minutes)
 #   scripts/reproduce.sh --only NAME...   some parts: experiment names, `renders`, `plots`, `bench`,
 #                                         `gmm`
@@ -42,6 +42,7 @@ bin=target/release/stokes
 
 experiments=(
   walls-integrators
+  walls-resets
   walls-wavelength-sampling
   hero-vs-mono-green
   hero-vs-mono-uv
@@ -60,6 +61,9 @@ experiments=(
   media-integrators-divider
   media-integrators-cube
   gmm-vs-matrix
+  hero-lanes-walls
+  hero-lanes-green
+  hero-lanes-medium
 )
 
 failed=()
