@@ -100,40 +100,28 @@ impl Accel {
             .any(|blk| Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_max, None) != 0)
     }
 
-    /// [`Self::intersect_flat`] compiled for AVX-512 (EVEX encodings and mask registers, 8
-    /// lanes: testing two packets at once in 16 lanes traced the Cornell box's rays 1.25× as
-    /// fast alone, but made pt-hero 0.89× as fast, the 512-bit instructions slowing the
-    /// shading code around them; docs/performance.md §1).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn intersect_flat_avx512(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> Option<Hit> {
-        self.intersect_flat(ox, oy, oz, dx, dy, dz, t_max)
-    }
+    ray_entry!(
+        /// [`Self::intersect_flat`] compiled for AVX-512 (EVEX encodings and mask registers, 8
+        /// lanes: testing two packets at once in 16 lanes traced the Cornell box's rays 1.25× as
+        /// fast alone, but made pt-hero 0.89× as fast, the 512-bit instructions slowing the
+        /// shading code around them; docs/performance.md §1).
+        intersect_flat_avx512,
+        "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
+        Option<Hit>,
+        |a, ray, t_max| {
+            let (o, d) = (ray.o, ray.d);
+            a.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+        }
+    );
 
-    /// [`Self::occluded_flat`] compiled for AVX-512, as [`Self::intersect_flat_avx512`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn occluded_flat_avx512(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> bool {
-        self.occluded_flat(ox, oy, oz, dx, dy, dz, t_max)
-    }
+    ray_entry!(
+        /// [`Self::occluded_flat`] compiled for AVX-512, as [`Self::intersect_flat_avx512`].
+        occluded_flat_avx512,
+        "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
+        bool,
+        |a, ray, t_max| {
+            let (o, d) = (ray.o, ray.d);
+            a.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+        }
+    );
 }

@@ -41,6 +41,37 @@ use obvhs::BvhBuildParams;
 
 use super::{Hit, Ray};
 
+/// A traversal entry point compiled for one instruction set (`$features`). The ray comes in
+/// registers, not behind a reference: loaded whole from a ray its caller has just stored piece
+/// by piece, it would wait for the stores to complete (`flat.rs`). `$body` sees it as `$ray`,
+/// with the accelerator as `$accel` and the distance bound `$t_max`.
+macro_rules! ray_entry {
+    ($(#[$attr:meta])* $name:ident, $features:literal, $ret:ty,
+     |$accel:ident, $ray:ident, $t_max:ident| $body:expr) => {
+        $(#[$attr])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        #[allow(clippy::too_many_arguments)]
+        pub(super) fn $name(
+            &self,
+            ox: f32,
+            oy: f32,
+            oz: f32,
+            dx: f32,
+            dy: f32,
+            dz: f32,
+            $t_max: f32,
+        ) -> $ret {
+            let $accel = self;
+            let $ray = $crate::geometry::Ray::new(
+                glam::Vec3::new(ox, oy, oz),
+                glam::Vec3::new(dx, dy, dz),
+            );
+            $body
+        }
+    };
+}
+
 mod build;
 mod collapse;
 mod flat;

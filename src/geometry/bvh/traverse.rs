@@ -56,42 +56,21 @@ impl Accel {
         self.intersect_dispatch::<ISA_PORTABLE>(ray, t_max)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn intersect_avx2(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> Option<Hit> {
-        // the ray in registers, as for `intersect_flat`
-        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.intersect_dispatch::<ISA_AVX2>(&ray, t_max)
-    }
+    ray_entry!(
+        intersect_avx2,
+        "avx2,popcnt,bmi1,fma",
+        Option<Hit>,
+        |a, ray, t_max| a.intersect_dispatch::<ISA_AVX2>(&ray, t_max)
+    );
 
-    /// [`Self::intersect_avx2`] compiled for AVX-512: the same loop with the AVX-512 node
-    /// visits, stack pushes and packet tests (and EVEX encodings, 32 vector registers).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn intersect_avx512(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> Option<Hit> {
-        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.intersect_dispatch::<ISA_AVX512>(&ray, t_max)
-    }
+    ray_entry!(
+        /// [`Self::intersect_avx2`] compiled for AVX-512: the same loop with the AVX-512 node
+        /// visits (and EVEX encodings, 32 vector registers).
+        intersect_avx512,
+        "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma",
+        Option<Hit>,
+        |a, ray, t_max| a.intersect_dispatch::<ISA_AVX512>(&ray, t_max)
+    );
 
     #[inline(always)]
     fn intersect_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
@@ -235,41 +214,20 @@ impl Accel {
         self.occluded_dispatch::<ISA_PORTABLE>(ray, t_max)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn occluded_avx2(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> bool {
-        // the ray in registers, as for `intersect_flat`
-        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.occluded_dispatch::<ISA_AVX2>(&ray, t_max)
-    }
+    ray_entry!(
+        occluded_avx2,
+        "avx2,popcnt,bmi1,fma",
+        bool,
+        |a, ray, t_max| a.occluded_dispatch::<ISA_AVX2>(&ray, t_max)
+    );
 
-    /// [`Self::occluded_avx2`] compiled for AVX-512, as [`Self::intersect_avx512`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn occluded_avx512(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> bool {
-        let ray = Ray::new(glam::Vec3::new(ox, oy, oz), glam::Vec3::new(dx, dy, dz));
-        self.occluded_dispatch::<ISA_AVX512>(&ray, t_max)
-    }
+    ray_entry!(
+        /// [`Self::occluded_avx2`] compiled for AVX-512, as [`Self::intersect_avx512`].
+        occluded_avx512,
+        "avx512f,avx512vl,avx512dq,avx512bw,avx2,popcnt,bmi1,fma",
+        bool,
+        |a, ray, t_max| a.occluded_dispatch::<ISA_AVX512>(&ray, t_max)
+    );
 
     #[inline(always)]
     fn occluded_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> bool {
