@@ -12,8 +12,13 @@
 //! the table as CSV and prints the memory per material: the matrix's values and its sampling
 //! tables against the mixture's `ReradiationGmm::model_bytes`.
 //!
-//! `cargo run --release --example gmm_swatch_bias -- [spp] [out.csv]`
-//! (defaults: 1024 spp, results/gmm-vs-matrix/swatch-bias.csv).
+//! With `--sampled`, the variants are the sampling-only scenes instead
+//! (scenes/gmm-swatches-sampled-{2,4,8}.json: the matrices evaluated exactly, their shifts drawn
+//! from the mixtures), which must converge to the matrix's colours: their ΔE00 is noise alone.
+//!
+//! `cargo run --release --example gmm_swatch_bias -- [spp] [out.csv] [--sampled]`
+//! (defaults: 1024 spp, results/gmm-vs-matrix/swatch-bias.csv, or
+//! results/gmm-sampling/swatch-bias.csv with `--sampled`).
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -29,6 +34,11 @@ const MIXTURES: [(usize, &str); 3] = [
     (2, "scenes/gmm-swatches-2.json"),
     (4, "scenes/gmm-swatches-4.json"),
     (8, "scenes/gmm-swatches-8.json"),
+];
+const SAMPLED: [(usize, &str); 3] = [
+    (2, "scenes/gmm-swatches-sampled-2.json"),
+    (4, "scenes/gmm-swatches-sampled-4.json"),
+    (8, "scenes/gmm-swatches-sampled-8.json"),
 ];
 const SEED: u64 = 7;
 
@@ -148,12 +158,16 @@ fn material_of<'a>(scene: &'a Scene, name: &str) -> &'a Material {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
+    let all: Vec<String> = std::env::args().collect();
+    let sampled = all.iter().any(|a| a == "--sampled");
+    let args: Vec<&String> = all.iter().filter(|a| *a != "--sampled").collect();
     let spp: u32 = args.get(1).map_or(1024, |s| s.parse().unwrap());
-    let out: PathBuf = args.get(2).map_or(
-        "results/gmm-vs-matrix/swatch-bias.csv".into(),
-        PathBuf::from,
-    );
+    let (variants, default_out) = if sampled {
+        (SAMPLED, "results/gmm-sampling/swatch-bias.csv")
+    } else {
+        (MIXTURES, "results/gmm-vs-matrix/swatch-bias.csv")
+    };
+    let out: PathBuf = args.get(2).map_or(default_out.into(), PathBuf::from);
     let t0 = Instant::now();
     let (matrix, text) = load(MATRIX);
     let white = Scene::from_str(Path::new(MATRIX), &white_scene(&text)).unwrap();
@@ -174,7 +188,7 @@ fn main() {
     let mut scenes = Vec::new();
     let mut g_lab = Vec::new();
     let mut snr = vec![("matrix, other seed".to_string(), snr_db(&noise_img, &m_img))];
-    for (k, path) in MIXTURES {
+    for (k, path) in variants {
         let (s, _) = load(path);
         let img = render_xyz(&s, spp, SEED, &format!("K = {k}"));
         g_lab.push(lab(&region(&img)));
@@ -193,12 +207,12 @@ fn main() {
          noise: matrix vs matrix at another seed\n"
     );
     print!("{:<10} {:>20}", "swatch", "matrix L* a* b*");
-    for (k, _) in MIXTURES {
+    for (k, _) in variants {
         print!(" {:>7}", format!("K={k}"));
     }
     println!(" {:>7}", "noise");
     let mut csv = String::from("swatch,L,a,b");
-    for (k, _) in MIXTURES {
+    for (k, _) in variants {
         csv += &format!(",L_k{k},a_k{k},b_k{k},de00_k{k}");
     }
     csv += ",de00_noise\n";
@@ -206,7 +220,7 @@ fn main() {
         let l = m_lab[s];
         print!("{:<10} {:>6.1} {:>6.1} {:>6.1}", name, l[0], l[1], l[2]);
         csv += &format!("{name},{:.3},{:.3},{:.3}", l[0], l[1], l[2]);
-        for (j, _) in MIXTURES.iter().enumerate() {
+        for (j, _) in variants.iter().enumerate() {
             let g = g_lab[j][s];
             print!(" {:>7.3}", per_k[j][s]);
             csv += &format!(",{:.3},{:.3},{:.3},{:.4}", g[0], g[1], g[2], per_k[j][s]);
@@ -226,7 +240,7 @@ fn main() {
         print!(" {:>7.3}", max(v));
     }
     println!(" {:>7.3}", max(&noise));
-    for (j, (k, _)) in MIXTURES.iter().enumerate() {
+    for (j, (k, _)) in variants.iter().enumerate() {
         let worst = (0..masks.len())
             .max_by(|&a, &b| per_k[j][a].total_cmp(&per_k[j][b]))
             .unwrap();
@@ -250,11 +264,15 @@ fn main() {
     }
     std::fs::write(&out, csv).unwrap();
     println!("wrote {}", out.display());
+    if sampled {
+        eprintln!("total {:.1} s", t0.elapsed().as_secs_f64());
+        return;
+    }
 
     // Memory per material.
     println!("\nmemory per material (bytes)");
     print!("{:<10} {:>8}", "swatch", "matrix");
-    for (k, _) in MIXTURES {
+    for (k, _) in variants {
         print!(" {:>7}", format!("K={k}"));
     }
     println!();

@@ -3,7 +3,9 @@
 
 Writes scenes/gmm-swatches.json (every swatch the measured matrix, material `reradiation`) and
 scenes/gmm-swatches-2.json, -4.json, -8.json (the same swatches as `reradiation-gmm` fitted at
-load with K = 2, 4, 8 Gaussians, weighted EM, seed 0; fits are cached, see src/scene/gmm.rs).
+load with K = 2, 4, 8 Gaussians, weighted EM, seed 0; fits are cached, see src/scene/gmm.rs) and
+scenes/gmm-swatches-sampled-2.json, -4.json, -8.json (the measured matrices again, their shifts
+drawn from those mixtures: `"sampling": {"type": "mixture"}`, the tables' share 0.1).
 
 The 24 materials come from the 144 RIT matrices in data/bispectral/rit/ (IXCAXORA is left out, as
 Hua §7.1 does). Each matrix is cleaned as the loader does (Hua §5.1: entries with λo < λi and
@@ -217,16 +219,22 @@ def quad_facing_minus_z(x0, x1, y0, y1, z):
     return [[x0, y0, z], [x0, y1, z], [x1, y1, z], [x1, y0, z]]
 
 
-def scene(chosen, rank, k):
+def scene(chosen, rank, k, sampled=False):
     size, gap = 1.0, 0.25
     w = COLS * size + (COLS - 1) * gap
     h = ROWS * size + (ROWS - 1) * gap
     names = ", ".join(f"{m['stem'].lower()} (#{rank[m['stem']] + 1})" for m in chosen)
-    kind = (
-        "the measured matrices (material `reradiation`)"
-        if k is None
-        else f"Gaussian mixtures of K = {k} fitted at load by weighted EM, seed 0 (material `reradiation-gmm`, cached)"
-    )
+    if k is None:
+        kind = "the measured matrices (material `reradiation`)"
+    elif sampled:
+        kind = (
+            "the measured matrices (material `reradiation`, evaluated exactly) with their shifts drawn from Gaussian "
+            f"mixtures of K = {k} fitted at load by weighted EM, seed 0 (`sampling`: `mixture`, cached), the tables' "
+            "share 0.1 (Hua's sampling-only use)"
+        )
+    else:
+        kind = f"Gaussian mixtures of K = {k} fitted at load by weighted EM, seed 0 (material `reradiation-gmm`, cached)"
+
     comment = (
         "gmm-vs-matrix (Hua 2022): 24 RIT bispectral swatches laid out like a ColorChecker (6×4 quads "
         "on a dark Lambertian backdrop, reflectance 0.05), each swatch named after its material (the "
@@ -252,6 +260,12 @@ def scene(chosen, rank, k):
         path = f"../data/bispectral/rit/{m['file']}"
         if k is None:
             materials[name] = {"type": "reradiation", "file": path}
+        elif sampled:
+            materials[name] = {
+                "type": "reradiation",
+                "file": path,
+                "sampling": {"type": "mixture", "components": k, "method": "em", "seed": 0, "defensive": 0.1},
+            }
         else:
             materials[name] = {"type": "reradiation-gmm", "bfc": path, "components": k, "method": "em", "seed": 0}
         shapes.append({"type": "quad", "name": name, "material": name, "corners": quad(x0, x0 + size, y1 - size, y1, 0.0)})
@@ -298,10 +312,15 @@ def main():
             print(f"{mark} {i + 1:3d} {m['stem']:10s} energy {m['energy']:8.3f}  L {L:5.1f} a {a:6.1f} b {b:6.1f}  C {m['chroma']:5.1f} h {m['hue']:5.1f}")
         return
     out = os.path.join(ROOT, "scenes")
-    for k in [None] + COMPONENTS:
-        name = "gmm-swatches.json" if k is None else f"gmm-swatches-{k}.json"
+    for k, sampled in [(None, False)] + [(k, False) for k in COMPONENTS] + [(k, True) for k in COMPONENTS]:
+        if k is None:
+            name = "gmm-swatches.json"
+        elif sampled:
+            name = f"gmm-swatches-sampled-{k}.json"
+        else:
+            name = f"gmm-swatches-{k}.json"
         with open(os.path.join(out, name), "w") as f:
-            json.dump(scene(chosen, rank, k), f, indent=1, ensure_ascii=False)
+            json.dump(scene(chosen, rank, k, sampled), f, indent=1, ensure_ascii=False)
             f.write("\n")
         print(f"wrote scenes/{name}")
     for m in chosen:

@@ -61,6 +61,7 @@ experiments=(
   media-integrators-divider
   media-integrators-cube
   gmm-vs-matrix
+  gmm-sampling
   hero-lanes-walls
   hero-lanes-green
   hero-lanes-medium

@@ -6,8 +6,11 @@
 //!   mixture's sampling, pdfs and evaluation with no fitting error in it. Both renders differ
 //!   clearly from the same scene with the fluorescence removed, so a kernel that is silently zero
 //!   would fail.
-//! - A malformed `reradiation-gmm` material is an input error naming the scene file and the
-//!   field.
+//! - The measured matrix with its shifts drawn from a fitted mixture (`"sampling": {"type":
+//!   "mixture"}`, Hua's sampling-only use) agrees per quadrant with the same matrix drawn from
+//!   its tables, in each of the five integrators.
+//! - A malformed `reradiation-gmm` material, or a malformed `sampling` of a `reradiation`
+//!   material, is an input error naming the scene file and the field.
 
 mod common;
 
@@ -64,6 +67,11 @@ struct Fixture {
     dense: Scene,
     /// `reradiation` with that matrix's diagonal only (no fluorescence).
     plain: Scene,
+    /// `reradiation` with the measured matrix, sampled by its tables.
+    matrix: Scene,
+    /// `reradiation` with the measured matrix, its shifts drawn from the fitted model (the
+    /// sampling-only mode, Hua §7.6), the tables' share 0.1.
+    sampled: Scene,
 }
 
 /// The room with `material` (JSON) as the dye, loaded as `dir/scene.json`.
@@ -81,6 +89,7 @@ fn fixture() -> &'static Fixture {
         let m = BfcMatrix::parse(BFC).unwrap();
         let mut model = fit_matrix(&m, &FitOptions::new(4, FitMethod::Em, 0)).unwrap();
         model.source.file = "GOLFYE.BFC".into();
+        model.source.sha256 = stokes::io::hash::sha256_hex(BFC.as_bytes());
         let dense = model.to_matrix_at(1.0).unwrap();
         let mut diag = dense.clone();
         for o in 0..diag.n_em {
@@ -98,10 +107,18 @@ fn fixture() -> &'static Fixture {
         )
         .unwrap();
         std::fs::write(dir.join("plain.bfc"), diag.to_bfc("GOLFYE diagonal")).unwrap();
+        std::fs::write(dir.join("golfye.bfc"), BFC).unwrap();
         let f = Fixture {
             gmm: room(&dir, r#"{"type": "reradiation-gmm", "file": "model.json"}"#).unwrap(),
             dense: room(&dir, r#"{"type": "reradiation", "file": "dense.bfc"}"#).unwrap(),
             plain: room(&dir, r#"{"type": "reradiation", "file": "plain.bfc"}"#).unwrap(),
+            matrix: room(&dir, r#"{"type": "reradiation", "file": "golfye.bfc"}"#).unwrap(),
+            sampled: room(
+                &dir,
+                r#"{"type": "reradiation", "file": "golfye.bfc",
+                    "sampling": {"type": "mixture", "file": "model.json", "defensive": 0.1}}"#,
+            )
+            .unwrap(),
         };
         std::fs::remove_dir_all(&dir).unwrap();
         eprintln!(
@@ -233,6 +250,63 @@ fn bdpt_allbins_renders_the_mixture_like_its_dense_matrix() {
     gmm_agrees_with_its_dense_matrix(IntegratorKind::BdptAllbins, 48);
 }
 
+/// Seeds per estimate of the sampling-only comparison. Its two sides differ only in how a shift
+/// is drawn, so their difference is small and its σ, estimated from the seeds' spread, must be
+/// trustworthy: with 6 seeds a side (5 degrees of freedom each) a correct estimator failed 3σ
+/// in one quadrant of two integrators, and passed at 0.6–0.9σ with 24 fresh seeds a side.
+const SAMPLING_SEEDS: u64 = 12;
+
+/// The measured matrix with its shifts drawn from the mixture (sampling only) against the same
+/// matrix drawn from its tables, with `kind` at `spp` samples per pixel × [`SAMPLING_SEEDS`]
+/// seeds: the same image (3σ per quadrant), since only the sampling differs and the weights are
+/// f_matrix / q.
+fn sampling_only_agrees_with_the_matrix(kind: IntegratorKind, spp: u32) {
+    let f = fixture();
+    let t = Instant::now();
+    let sampled = quadrants(&f.sampled, kind, spp, SAMPLING_SEEDS, 400);
+    let t_sampled = t.elapsed().as_secs_f64();
+    let matrix = quadrants(&f.matrix, kind, spp, SAMPLING_SEEDS, 500);
+    eprintln!(
+        "{}: {spp} spp × {SAMPLING_SEEDS} seeds: mixture-sampled {t_sampled:.2} s, table-sampled {:.2} s",
+        kind.name(),
+        t.elapsed().as_secs_f64() - t_sampled
+    );
+    let what = format!("{}: mixture-sampled matrix vs table-sampled", kind.name());
+    check_quadrants_meaningful(&format!("{what} (mixture)"), sampled);
+    check_quadrants_meaningful(&format!("{what} (tables)"), matrix);
+    assert_agree(&what, sampled, matrix);
+}
+
+#[test]
+fn pt_mono_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::PtMono, 512);
+}
+
+#[test]
+fn pt_hero_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::PtHero, 256);
+}
+
+#[test]
+fn bdpt_forward_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::BdptForward, 64);
+}
+
+#[test]
+fn bdpt_backward_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::BdptBackward, 32);
+}
+
+#[test]
+fn bdpt_combined_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::BdptCombined, 24);
+}
+
+#[test]
+fn bdpt_allbins_samples_the_matrix_with_the_mixture_without_bias() {
+    sampling_only_agrees_with_the_matrix(IntegratorKind::BdptAllbins, 48);
+}
+
 /// A malformed-material case: tag, material JSON, files beside the scene, what the error names.
 type Case<'a> = (&'a str, &'a str, &'a [(&'a str, &'a str)], &'a [&'a str]);
 
@@ -320,6 +394,70 @@ fn malformed_gmm_materials_name_the_scene_file_and_the_field() {
             assert!(e.contains(w), "{tag}: should name {w}: {e}");
         }
     }
+    // A `reradiation` material's `sampling`: a share of 0 (nothing would bound f/q), a kind
+    // that does not exist, an unknown field, settings beside a fitted file, a missing model,
+    // no components.
+    let sampling =
+        |s: &str| format!(r#"{{"type": "reradiation", "file": "g.bfc", "sampling": {s}}}"#);
+    let files: &[(&str, &str)] = &[("g.bfc", BFC), ("m.json", &model)];
+    for (tag, s, want) in [
+        (
+            "zero-share",
+            r#"{"type": "mixture", "components": 2, "defensive": 0}"#,
+            "materials.dye.sampling.defensive",
+        ),
+        (
+            "share-above-one",
+            r#"{"type": "mixture", "file": "m.json", "defensive": 1.5}"#,
+            "materials.dye.sampling.defensive",
+        ),
+        (
+            "unknown-kind",
+            r#"{"type": "gmm"}"#,
+            "materials.dye.sampling.type",
+        ),
+        (
+            "unknown-field",
+            r#"{"type": "mixture", "components": 2, "alpha": 0.2}"#,
+            "materials.dye.sampling.alpha",
+        ),
+        (
+            "settings-with-file",
+            r#"{"type": "mixture", "file": "m.json", "seed": 3}"#,
+            "materials.dye.sampling.seed",
+        ),
+        (
+            "missing-model",
+            r#"{"type": "mixture", "file": "none.json"}"#,
+            "materials.dye.sampling.file",
+        ),
+        (
+            "zero-components",
+            r#"{"type": "mixture", "components": 0}"#,
+            "materials.dye.sampling.components",
+        ),
+    ] {
+        let e = scene_error(tag, &sampling(s), files);
+        eprintln!("{tag}: {e}");
+        assert!(e.contains("scene.json") && e.contains(want), "{tag}: {e}");
+    }
+    // A model fitted to another matrix loads (it still samples without bias), with a warning.
+    let dir = common::temp_dir("other-model");
+    std::fs::write(dir.join("g.bfc"), BFC).unwrap();
+    let mut other = fitted.clone();
+    other.source.sha256 = "0".repeat(64);
+    std::fs::write(dir.join("m.json"), other.to_json()).unwrap();
+    let scene = room(&dir, &sampling(r#"{"type": "mixture", "file": "m.json"}"#)).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("materials.dye.sampling.file") && w.contains("not fitted")),
+        "{:?}",
+        scene.warnings
+    );
+
     // A model file that is not JSON at all, and one with a bad component.
     let e = scene_error(
         "not-json",

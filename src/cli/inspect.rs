@@ -55,8 +55,16 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
             #[cfg(feature = "fluorescence")]
             crate::material::Material::Reradiation(r) => {
                 let (o, i) = r.shape();
+                let sampled = match r.sampler() {
+                    Some(s) => format!(
+                        ", shifts drawn from {} Gaussians (tables' share {})",
+                        s.components(),
+                        s.defensive()
+                    ),
+                    None => String::new(),
+                };
                 format!(
-                    "reradiation, {o}×{i} matrix, {} bytes to render",
+                    "reradiation, {o}×{i} matrix{sampled}, {} bytes to render",
                     r.render_bytes()
                 )
             }

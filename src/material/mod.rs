@@ -19,7 +19,7 @@ pub mod reradiation_gmm;
 pub use binop::BinOperator;
 pub use fluorescent::FluorescentDiffuse;
 pub use lambert::Lambert;
-pub use reradiation::Reradiation;
+pub use reradiation::{MixtureSampler, Reradiation};
 pub use reradiation_gmm::ReradiationGmm;
 
 use crate::spectrum::{BinGrid, Domain, Lanes};
@@ -343,7 +343,31 @@ mod tests {
                 Material::Reradiation(Reradiation::parse_bfc(golf, DEFAULT_DOMAIN).unwrap()),
             ),
             ("reradiation-gmm", Material::ReradiationGmm(gmm(golf, 4))),
+            (
+                "reradiation sampled by its mixture",
+                Material::Reradiation(sampled_by(golf, golf, 2, 0.1)),
+            ),
+            (
+                "reradiation sampled by another's mixture",
+                Material::Reradiation(sampled_by(
+                    golf,
+                    include_str!("../../data/bispectral/rit/TEXTBLUE.BFC"),
+                    4,
+                    0.25,
+                )),
+            ),
         ]
+    }
+
+    /// The matrix of `bfc` with its shifts drawn from the `k`-Gaussian mixture of `fit_bfc`,
+    /// the tables' share `alpha`.
+    fn sampled_by(bfc: &str, fit_bfc: &str, k: usize, alpha: f32) -> Reradiation {
+        use mixture::{FitMethod, FitOptions, fit_matrix};
+        let m = reradiation::BfcMatrix::parse(fit_bfc).unwrap();
+        let f = fit_matrix(&m, &FitOptions::new(k, FitMethod::Em, 0)).unwrap();
+        Reradiation::parse_bfc(bfc, DEFAULT_DOMAIN)
+            .unwrap()
+            .with_sampler(MixtureSampler::new(&f, DEFAULT_DOMAIN, alpha))
     }
 
     fn gmm(bfc: &str, k: usize) -> ReradiationGmm {

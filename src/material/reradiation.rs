@@ -8,6 +8,7 @@
 //! the diagonal (λo < λi) and every negative value are set to zero. Reflectance is not measured
 //! below the first emission wavelength (380 nm) and is taken as zero there.
 
+use super::mixture::{ConditionalMixture, GmmFile};
 use super::{Bbrrdf, BinOperator, PathSide, ShiftDraw, average_fn};
 use crate::spectrum::{BinGrid, Domain};
 
@@ -235,10 +236,62 @@ impl BfcMatrix {
     }
 }
 
+/// Sampling-only use of a fitted mixture (Hua abstract, §7.6): the new wavelength of a shift is
+/// drawn from the defensive mixture q = α·p_matrix + (1 − α)·p_gmm of the matrix's own tabulated
+/// conditional and the mixture's truncated conditional, while the kernel stays the measured
+/// matrix's, so a shift carries f_matrix / q. The α·p_matrix part keeps q positive wherever the
+/// matrix is, whatever the mixture's tails do; where the mixture's conditional is empty, α is 1.
+#[derive(Clone, Debug)]
+pub struct MixtureSampler {
+    cond: ConditionalMixture,
+    /// α, in (0, 1].
+    defensive: f32,
+    components: usize,
+}
+
+impl MixtureSampler {
+    /// The sampler of a validated model file, with defensive share `defensive` in (0, 1].
+    pub fn new(f: &GmmFile, domain: Domain, defensive: f32) -> Self {
+        assert!(defensive > 0.0 && defensive <= 1.0);
+        MixtureSampler {
+            cond: f.conditional(domain),
+            defensive,
+            components: f.components.len(),
+        }
+    }
+
+    /// Number of Gaussians.
+    pub fn components(&self) -> usize {
+        self.components
+    }
+
+    /// The defensive share α.
+    pub fn defensive(&self) -> f32 {
+        self.defensive
+    }
+
+    /// Heap and inline bytes of the prepared mixture.
+    pub fn render_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.cond.heap_bytes()
+    }
+
+    /// α at the known wavelength: 1 where the mixture's conditional is empty.
+    #[inline]
+    fn share(&self, known: f32, axis: usize) -> f32 {
+        if self.cond.total(known as f64, axis) > 0.0 {
+            self.defensive
+        } else {
+            1.0
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Reradiation {
     m: BfcMatrix,
     domain: Domain,
+    /// Draws shifts from a fitted mixture instead of the tables (`None`: the tables alone).
+    sampler: Option<MixtureSampler>,
     /// Per excitation column: Σ_o D[o][i]·w_o/Δλ (∫ρ dλo) and the CDF over o.
     col_total: Vec<f32>,
     col_cdf: Vec<Vec<f32>>,
@@ -259,6 +312,7 @@ impl Reradiation {
         let mut r = Reradiation {
             m,
             domain,
+            sampler: None,
             col_total: vec![],
             col_cdf: vec![],
             row_total: vec![],
@@ -279,6 +333,18 @@ impl Reradiation {
             r.row_cdf.push(c);
         }
         r
+    }
+
+    /// Sample shifts with a fitted mixture (defensively mixed with the tables) while evaluating
+    /// the matrix.
+    pub fn with_sampler(mut self, s: MixtureSampler) -> Self {
+        self.sampler = Some(s);
+        self
+    }
+
+    /// The mixture that draws shifts, if any.
+    pub fn sampler(&self) -> Option<&MixtureSampler> {
+        self.sampler.as_ref()
     }
 
     /// The cleaned matrix.
@@ -311,12 +377,64 @@ impl Reradiation {
         (a + u * (b - a)).min(b)
     }
 
+    /// The tables' own draw: the column (light paths) or row (camera paths) by its CDF from
+    /// `u[1]`, uniformly inside the chosen cell.
+    fn sample_table(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
+        let none = ShiftDraw {
+            lambda: l,
+            density: 0.0,
+            kernel: 0.0,
+        };
+        let (cdf, total, lo) = match side {
+            PathSide::Light => match self.ex_index(l) {
+                Some(i) => (&self.col_cdf[i], self.col_total[i], self.m.em_lo),
+                None => return none,
+            },
+            PathSide::Camera => match self.em_index(l) {
+                Some(o) => (&self.row_cdf[o], self.row_total[o], self.m.ex_lo),
+                None => return none,
+            },
+        };
+        if total <= 0.0 {
+            return none;
+        }
+        let (k, t) = sample_cdf(cdf, u[1]);
+        let lambda = self.sample_in_cell(lo, k, t);
+        let kernel = match side {
+            PathSide::Light => self.kernel(l, lambda),
+            PathSide::Camera => self.kernel(lambda, l),
+        };
+        ShiftDraw {
+            lambda,
+            density: kernel / total,
+            kernel,
+        }
+    }
+    /// Density of [`Reradiation::sample_table`]: the kernel over its column's or row's total.
+    fn table_density(&self, l: f32, l_new: f32, side: PathSide) -> f32 {
+        let (total, kernel) = match side {
+            PathSide::Light => match self.ex_index(l) {
+                Some(i) => (self.col_total[i], self.kernel(l, l_new)),
+                None => return 0.0,
+            },
+            PathSide::Camera => match self.em_index(l) {
+                Some(o) => (self.row_total[o], self.kernel(l_new, l)),
+                None => return 0.0,
+            },
+        };
+        if total <= 0.0 { 0.0 } else { kernel / total }
+    }
+
     /// Dimensions (emission rows, excitation columns).
     /// Bytes it renders with: the matrix, the per-column and per-row CDFs and totals.
     pub fn render_bytes(&self) -> usize {
         let cdfs: usize = self.col_cdf.iter().chain(&self.row_cdf).map(Vec::len).sum();
         std::mem::size_of::<Self>()
             + 4 * (self.m.d.len() + cdfs + self.col_total.len() + self.row_total.len())
+            + self
+                .sampler
+                .as_ref()
+                .map_or(0, MixtureSampler::render_bytes)
     }
 
     pub fn shape(&self) -> (usize, usize) {
@@ -425,6 +543,18 @@ fn cdf(w: &[f32]) -> (f32, Vec<f32>) {
     (total, c)
 }
 
+/// The mixture's axis of the known wavelength: λi (0) on light paths, λo (1) on camera paths.
+#[inline]
+fn side_axis(side: PathSide) -> usize {
+    match side {
+        PathSide::Light => 0,
+        PathSide::Camera => 1,
+    }
+}
+
+/// The largest f32 below 1.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
 fn sample_cdf(c: &[f32], u: f32) -> (usize, f32) {
     let k = c.partition_point(|&x| x <= u).min(c.len() - 1);
     let lo = if k == 0 { 0.0 } else { c[k - 1] };
@@ -486,50 +616,56 @@ impl Bbrrdf for Reradiation {
         }
     }
     /// Sample the measured kernel's column (light paths: λout given λin) or row (camera paths:
-    /// λin given λout) by its CDF, uniformly inside the chosen cell.
+    /// λin given λout) by its CDF, uniformly inside the chosen cell; with a [`MixtureSampler`],
+    /// `u[0]` first chooses between the tables (probability α) and the mixture.
     fn sample_shift(&self, l: f32, u: [f32; 2], side: PathSide) -> ShiftDraw {
-        let none = ShiftDraw {
-            lambda: l,
-            density: 0.0,
-            kernel: 0.0,
+        let Some(s) = &self.sampler else {
+            return self.sample_table(l, u, side);
         };
-        let (cdf, total, lo) = match side {
-            PathSide::Light => match self.ex_index(l) {
-                Some(i) => (&self.col_cdf[i], self.col_total[i], self.m.em_lo),
-                None => return none,
-            },
-            PathSide::Camera => match self.em_index(l) {
-                Some(o) => (&self.row_cdf[o], self.row_total[o], self.m.ex_lo),
-                None => return none,
-            },
-        };
-        if total <= 0.0 {
-            return none;
+        let axis = side_axis(side);
+        let alpha = s.share(l, axis);
+        if u[0] < alpha {
+            let mut d = self.sample_table(l, u, side);
+            if d.density > 0.0 {
+                let mix = s.cond.density(l as f64, d.lambda as f64, axis) as f32;
+                d.density = alpha * d.density + (1.0 - alpha) * mix;
+            }
+            return d;
         }
-        let (k, t) = sample_cdf(cdf, u[1]);
-        let lambda = self.sample_in_cell(lo, k, t);
-        let kernel = match side {
-            PathSide::Light => self.kernel(l, lambda),
-            PathSide::Camera => self.kernel(lambda, l),
-        };
-        ShiftDraw {
-            lambda,
-            density: kernel / total,
-            kernel,
+        let u0 = ((u[0] - alpha) / (1.0 - alpha)).min(ONE_BELOW);
+        match s.cond.sample(l as f64, axis, [u0 as f64, u[1] as f64]) {
+            Some(g) => {
+                let lambda = g.lambda as f32;
+                let table = self.table_density(l, lambda, side);
+                let kernel = match side {
+                    PathSide::Light => self.kernel(l, lambda),
+                    PathSide::Camera => self.kernel(lambda, l),
+                };
+                ShiftDraw {
+                    lambda,
+                    // q = α·p_matrix + (1 − α)·p_gmm
+                    density: alpha * table + (1.0 - alpha) * g.density as f32,
+                    kernel,
+                }
+            }
+            None => self.sample_table(l, u, side), // unreachable: α = 1 there
         }
     }
     fn shift_density(&self, l: f32, l_new: f32, side: PathSide) -> f32 {
-        let (total, kernel) = match side {
-            PathSide::Light => match self.ex_index(l) {
-                Some(i) => (self.col_total[i], self.kernel(l, l_new)),
-                None => return 0.0,
-            },
-            PathSide::Camera => match self.em_index(l) {
-                Some(o) => (self.row_total[o], self.kernel(l_new, l)),
-                None => return 0.0,
-            },
-        };
-        if total <= 0.0 { 0.0 } else { kernel / total }
+        let table = self.table_density(l, l_new, side);
+        match &self.sampler {
+            None => table,
+            Some(s) => {
+                let axis = side_axis(side);
+                let alpha = s.share(l, axis);
+                let mix = if alpha < 1.0 {
+                    s.cond.density(l as f64, l_new as f64, axis) as f32
+                } else {
+                    0.0
+                };
+                alpha * table + (1.0 - alpha) * mix
+            }
+        }
     }
     /// Dense upper-triangle operator: K[o][i] = (1/Δo) ∫_o ∫_i ρ (1 nm midpoint rule, exact for
     /// the piecewise-constant cells on an integer-nm grid). Only bins that meet the matrix's
@@ -739,5 +875,63 @@ mod tests {
             (total - want).abs() < 2e-3 * want.max(1e-3),
             "{total} vs {want}"
         );
+    }
+
+    /// The mixture of another material (TEXTBLUE, K = 2) drawing GOLFYE's shifts: the density
+    /// is positive wherever GOLFYE's kernel is (the tables' share α keeps it so), matches the
+    /// density reported by each draw, and the mean of kernel / density over draws is ∫ρ, the
+    /// weight a shift must carry (6σ).
+    #[test]
+    fn a_mixture_sampler_is_positive_where_the_matrix_is_and_unbiased() {
+        use crate::material::mixture::{FitMethod, FitOptions, fit_matrix};
+        use rand::{Rng, SeedableRng};
+        let other =
+            BfcMatrix::parse(include_str!("../../data/bispectral/rit/TEXTBLUE.BFC")).unwrap();
+        let f = fit_matrix(&other, &FitOptions::new(2, FitMethod::Em, 0)).unwrap();
+        let m = Reradiation::parse_bfc(GOLFYE, DEFAULT_DOMAIN)
+            .unwrap()
+            .with_sampler(MixtureSampler::new(&f, DEFAULT_DOMAIN, 0.1));
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+        for (side, known) in [
+            (PathSide::Light, [330.0f32, 400.0, 450.0]),
+            (PathSide::Camera, [480.0, 520.0, 600.0]),
+        ] {
+            for l in known {
+                for k in 0..5000 {
+                    let x = 280.0 + 0.1 * (k as f32 + 0.5);
+                    let kernel = match side {
+                        PathSide::Light => m.kernel(l, x),
+                        PathSide::Camera => m.kernel(x, l),
+                    };
+                    if kernel > 0.0 {
+                        assert!(m.shift_density(l, x, side) > 0.0, "{side:?} {l} → {x}");
+                    }
+                }
+                let total = match side {
+                    PathSide::Light => m.col_total[m.ex_index(l).unwrap()],
+                    PathSide::Camera => m.row_total[m.em_index(l).unwrap()],
+                } as f64;
+                let n = 200_000;
+                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+                for _ in 0..n {
+                    let d = m.sample_shift(l, [rng.random(), rng.random()], side);
+                    let want = m.shift_density(l, d.lambda, side);
+                    assert!((d.density - want).abs() <= 1e-5 * want, "{d:?} vs {want}");
+                    let w = if d.density > 0.0 {
+                        (d.kernel / d.density) as f64
+                    } else {
+                        0.0
+                    };
+                    sum += w;
+                    sum2 += w * w;
+                }
+                let mean = sum / n as f64;
+                let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+                assert!(
+                    (mean - total).abs() < 6.0 * se + 1e-6 * total,
+                    "{side:?} {l}: E[ρ/q] = {mean} ± {se}, ∫ρ = {total}"
+                );
+            }
+        }
     }
 }

@@ -119,6 +119,9 @@ pub enum MaterialDesc {
     /// A measured bispectral matrix (BFC file).
     Reradiation {
         file: String,
+        /// A [`ShiftSamplingDesc`], read by the builder (so that errors inside keep their path).
+        #[serde(default)]
+        sampling: Option<Value>,
     },
     /// A Gaussian-mixture reradiation model (Hua 2022): a fitted model `file`, or a `bfc`
     /// matrix fitted at load time (cached).
@@ -133,6 +136,30 @@ pub enum MaterialDesc {
         method: Option<crate::material::mixture::FitMethod>,
         #[serde(default)]
         seed: Option<u64>,
+    },
+}
+
+/// How a `reradiation` material draws the new wavelength of a shift.
+#[derive(Deserialize)]
+// Written `{"type": "<kind>", …}`, read with `from_tagged_value` (field paths kept).
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ShiftSamplingDesc {
+    /// The matrix's own tabulated CDFs (the default).
+    Matrix {},
+    /// A fitted Gaussian mixture (Hua 2022) used for sampling only, the matrix still evaluated:
+    /// a fitted model `file`, or the material's own matrix fitted at load (cached) with
+    /// `components`, `method` and `seed`; `defensive` is the tables' share α of the draws.
+    Mixture {
+        #[serde(default)]
+        file: Option<String>,
+        #[serde(default)]
+        components: Option<usize>,
+        #[serde(default)]
+        method: Option<crate::material::mixture::FitMethod>,
+        #[serde(default)]
+        seed: Option<u64>,
+        #[serde(default)]
+        defensive: Option<f32>,
     },
 }
 

@@ -8,8 +8,11 @@
 
 use crate::io::InputError;
 use crate::io::hash::sha256_hex;
+use crate::material::MixtureSampler;
 use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
+use crate::scene::format::ShiftSamplingDesc;
+use crate::spectrum::Domain;
 use std::path::{Path, PathBuf};
 
 /// Components fitted when a scene gives a `bfc` without `components` (Hua §7.4's advice).
@@ -71,22 +74,7 @@ pub fn load(
                         format!("malformed BFC file '{}': {m}", full.display()),
                     )
                 })?;
-            let opt = FitOptions::new(
-                src.components.unwrap_or(DEFAULT_COMPONENTS),
-                src.method.unwrap_or_default(),
-                src.seed.unwrap_or(0),
-            );
-            if let Some(k) = src.components
-                && !(1..=crate::material::mixture::conditional::MAX_COMPONENTS).contains(&k)
-            {
-                return Err(err(
-                    "components",
-                    format!(
-                        "{k} is not in 1..={}",
-                        crate::material::mixture::conditional::MAX_COMPONENTS
-                    ),
-                ));
-            }
+            let opt = options(src.components, src.method, src.seed, err)?;
             fitted(&m, &bytes, bfc, &opt, warnings)
                 .map_err(|m| err("bfc", format!("cannot fit '{}': {m}", full.display())))
         }
@@ -99,6 +87,107 @@ pub fn load(
             "missing: give `file` (a fitted model) or `bfc` (a matrix to fit)".to_string(),
         )),
     }
+}
+
+/// The fit settings of a material's `components`, `method` and `seed` (defaults: 8, EM, 0);
+/// `err` places an error at one of those fields.
+fn options(
+    components: Option<usize>,
+    method: Option<FitMethod>,
+    seed: Option<u64>,
+    err: impl Fn(&str, String) -> InputError,
+) -> Result<FitOptions, InputError> {
+    let max = crate::material::mixture::conditional::MAX_COMPONENTS;
+    if let Some(k) = components
+        && !(1..=max).contains(&k)
+    {
+        return Err(err("components", format!("{k} is not in 1..={max}")));
+    }
+    Ok(FitOptions::new(
+        components.unwrap_or(DEFAULT_COMPONENTS),
+        method.unwrap_or_default(),
+        seed.unwrap_or(0),
+    ))
+}
+
+/// The tables' share α of the draws of a sampling-only mixture when a scene does not give one.
+pub const DEFAULT_DEFENSIVE: f32 = 0.1;
+
+/// The `sampling` of a `reradiation` material at JSON path `base` (its own matrix `m`, read
+/// from file bytes `bytes` named `name`): `None` for the matrix's tables, else the mixture that
+/// draws its shifts, from a fitted `file` or fitted at load like a `reradiation-gmm` `bfc`.
+#[allow(clippy::too_many_arguments)]
+pub fn sampler(
+    scene: &Path,
+    dir: &Path,
+    base: &str,
+    desc: ShiftSamplingDesc,
+    (m, bytes, name): (&BfcMatrix, &[u8], &str),
+    domain: Domain,
+    warnings: &mut Vec<String>,
+) -> Result<Option<MixtureSampler>, InputError> {
+    let err = |field: &str, msg: String| InputError::new(scene, format!("{base}.{field}"), msg);
+    let ShiftSamplingDesc::Mixture {
+        file,
+        components,
+        method,
+        seed,
+        defensive,
+    } = desc
+    else {
+        return Ok(None);
+    };
+    let alpha = defensive.unwrap_or(DEFAULT_DEFENSIVE);
+    if !(alpha > 0.0 && alpha <= 1.0) {
+        return Err(err(
+            "defensive",
+            format!(
+                "{alpha} is not in (0, 1]: it is the tables' share of the draws, and only a \
+                 positive share keeps the sampling density positive wherever the matrix is"
+            ),
+        ));
+    }
+    let f = match file {
+        Some(file) => {
+            for (set, name) in [
+                (components.is_some(), "components"),
+                (method.is_some(), "method"),
+                (seed.is_some(), "seed"),
+            ] {
+                if set {
+                    return Err(err(
+                        name,
+                        "only applies without `file` (a fitted `file` already has its settings)"
+                            .to_string(),
+                    ));
+                }
+            }
+            let full = dir.join(&file);
+            let text = crate::io::input::read_text(&full, crate::io::input::GMM_MODEL)
+                .map_err(|e| err("file", e))?;
+            let f = GmmFile::parse(&text).map_err(|e| {
+                err(
+                    "file",
+                    format!("malformed GMM file '{}': {e}", full.display()),
+                )
+            })?;
+            if f.source.sha256 != sha256_hex(bytes) {
+                warnings.push(format!(
+                    "{base}.file: the model '{}' was not fitted to '{name}' (its source is \
+                     '{}'): it still samples without bias, but less well",
+                    full.display(),
+                    f.source.file
+                ));
+            }
+            f
+        }
+        None => {
+            let opt = options(components, method, seed, err)?;
+            fitted(m, bytes, name, &opt, warnings)
+                .map_err(|e| err("components", format!("cannot fit '{name}': {e}")))?
+        }
+    };
+    Ok(Some(MixtureSampler::new(&f, domain, alpha)))
 }
 
 /// The folder of cached fits, if the environment names one.

@@ -100,17 +100,33 @@ pub(super) fn material(
             Material::Fluorescent(m)
         }
         #[cfg(feature = "fluorescence")]
-        MaterialDesc::Reradiation { file } => {
+        MaterialDesc::Reradiation { file, sampling } => {
             let full = ctx.dir.join(&file);
-            let text = crate::io::input::read_text(&full, crate::io::input::BFC)
+            let bytes = crate::io::input::read_bytes(&full, crate::io::input::BFC)
                 .map_err(|e| err(&format!("{base}.file"), e))?;
-            let m = Reradiation::parse_bfc(&text, domain).map_err(|m| {
-                err(
-                    &format!("{base}.file"),
-                    format!("malformed BFC file '{}': {m}", full.display()),
-                )
-            })?;
-            Material::Reradiation(m)
+            let m = std::str::from_utf8(&bytes)
+                .map_err(|e| e.to_string())
+                .and_then(crate::material::reradiation::BfcMatrix::parse)
+                .map_err(|m| {
+                    err(
+                        &format!("{base}.file"),
+                        format!("malformed BFC file '{}': {m}", full.display()),
+                    )
+                })?;
+            let sampler = match sampling {
+                None => None,
+                Some(v) => {
+                    let at = format!("{base}.sampling");
+                    let desc = crate::io::json::from_tagged_value(ctx.file, &at, "type", &v)?;
+                    let src = (&m, bytes.as_slice(), file.as_str());
+                    gmm::sampler(ctx.file, &ctx.dir, &at, desc, src, domain, warnings)?
+                }
+            };
+            let r = Reradiation::new(m, domain);
+            Material::Reradiation(match sampler {
+                Some(s) => r.with_sampler(s),
+                None => r,
+            })
         }
         #[cfg(feature = "fluorescence")]
         MaterialDesc::ReradiationGmm {
