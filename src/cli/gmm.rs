@@ -1,4 +1,5 @@
-//! `stokes gmm fit`, `dense` and `eval`: Gaussian-mixture reradiation models and their checks.
+//! `stokes gmm fit`, `dense`, `eval` and `figures`: Gaussian-mixture reradiation models and their
+//! checks.
 
 use super::{choice, output_error};
 use crate::Error;
@@ -297,4 +298,82 @@ fn print_raw_reference(s: &crate::gmm::summary::Summary) {
             .collect();
         println!("worst illuminants at K = 4: {}", worst.join(", "));
     }
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct GmmFigsArgs {
+    /// A folder of BFC files (e.g. data/bispectral/rit).
+    pub dir: PathBuf,
+    /// Numbers of Gaussians to fit, comma-separated (Figs. 5 and 8a use 4 when listed).
+    #[arg(long, value_delimiter = ',', default_value = "2,4,8")]
+    pub components: Vec<usize>,
+    #[arg(long, value_parser = choice::<FitMethod>(), default_value = FitMethod::default().name())]
+    pub method: FitMethod,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A folder of illuminant tables instead of the 59 CIE illuminants built into stokes.
+    #[arg(long)]
+    pub illuminants: Option<PathBuf>,
+    /// Fig. 4's material: a BFC file's stem (any case) or the start of exactly one.
+    #[arg(long, default_value = crate::gmm::figures::FIG4_MATERIAL)]
+    pub material: String,
+    /// Fig. 4's excitation wavelength λi, nm.
+    #[arg(long, default_value_t = crate::gmm::figures::FIG4_EXCITATION)]
+    pub excitation: f32,
+    /// How many of the worst materials Figs. 5 and 6 show (and worst illuminants Fig. 5).
+    #[arg(long, default_value_t = 5)]
+    pub worst: usize,
+    /// Output folder [default: results/gmm-eval/<method>/figures].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+/// Hua's Figs. 4, 5, 6, 7a and 8a.
+pub fn gmm_figures(a: &GmmFigsArgs) -> Result<(), Error> {
+    let out = a.output.clone().unwrap_or_else(|| {
+        Path::new(crate::gmm::evaluate::DEFAULT_OUT)
+            .join(a.method.name())
+            .join("figures")
+    });
+    let opt = crate::gmm::figures::Options {
+        run: crate::gmm::evaluate::Run {
+            dir: &a.dir,
+            components: &a.components,
+            method: a.method,
+            seed: a.seed,
+            out: &out,
+            illuminants_dir: a.illuminants.as_deref(),
+        },
+        material: &a.material,
+        excitation: a.excitation,
+        worst: a.worst,
+    };
+    let d = crate::gmm::figures::figures(&opt)?;
+    let list = |v: &[(String, f64)]| {
+        v.iter()
+            .map(|(n, m)| format!("{n} {m:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!(
+        "figures of {} fits ({:?}) in {:.1} s; ΔE00 against the cleaned matrices (Hua §5.1)",
+        a.dir.display(),
+        a.method,
+        d.seconds
+    );
+    println!("Fig. 4: {} at {} nm", d.material, a.excitation);
+    println!(
+        "Figs. 5, 6: worst under monochromatic light at K = {}: {}",
+        d.components,
+        list(&d.worst_materials)
+    );
+    println!(
+        "Fig. 8a: worst CIE illuminants at K = {}: {}",
+        d.components,
+        list(&d.worst_illuminants)
+    );
+    for f in &d.outputs {
+        println!("{}", f.display());
+    }
+    Ok(())
 }

@@ -234,7 +234,7 @@ fn write_text(path: &Path, text: &str) -> Result<(), String> {
 /// Before anything is fitted: the output folder exists (it is created) and takes new files, and
 /// nothing the evaluation writes there (`delta-e00*.csv`, `summary.json`, the `.svg` and `.png`
 /// box plots) is anything but a regular file.
-fn check_output_folder(out: &Path) -> Result<(), Error> {
+pub(crate) fn check_output_folder(out: &Path) -> Result<(), Error> {
     let bad = |e: String| Error::input(format!("-o/--output '{}': {e}", out.display()));
     std::fs::create_dir_all(out)
         .map_err(|e| format!("cannot create the folder: {e}"))

@@ -263,6 +263,9 @@ pub fn per_light(rows: &[Row], components: &[usize]) -> Vec<LightStats> {
     }
     let mut out = Vec::with_capacity(groups.len());
     for (g, group) in groups.iter().enumerate() {
+        if group.is_empty() {
+            continue;
+        }
         let (light, kind) = lights[g / components.len()];
         let mean = |f: fn(&Row) -> f64| -> f64 {
             group.iter().map(|r| f(r)).sum::<f64>() / group.len().max(1) as f64
