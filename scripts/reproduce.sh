@@ -179,13 +179,17 @@ if wanted bench; then
   fi
 fi
 
-# Hua 2022's colour evaluation of Gaussian-mixture fits of the 144 RIT matrices (seconds).
+# Hua 2022's colour evaluation of Gaussian-mixture fits of the 144 RIT matrices and its
+# figures (Figs. 4-8; seconds).
 if wanted gmm; then
   for method in em bayes; do
     echo "== gmm eval ($method)"
     "$bin" gmm eval data/bispectral/rit --components 2,4,8 --method "$method" \
       -o "$out/gmm-eval/$method" || failed+=("gmm eval $method")
   done
+  echo "== gmm figures (em)"
+  "$bin" gmm figures data/bispectral/rit --components 2,4,8 --method em \
+    -o "$out/gmm-eval/em/figures" || failed+=("gmm figures")
 fi
 
 if [ ${#failed[@]} -gt 0 ]; then

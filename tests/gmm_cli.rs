@@ -438,3 +438,28 @@ fn gmm_outputs_are_checked_before_any_work() {
     assert!(err.contains("both be fitted into"), "{err}");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// `gmm figures`: a material that is not in the folder, an excitation wavelength outside the
+/// matrix's range, and no material to show are input errors naming the flag, before any fit.
+#[test]
+fn gmm_figures_names_bad_flags() {
+    let d = tmpdir("figures");
+    std::fs::write(d.join("GOLFYE.BFC"), GOLFYE).unwrap();
+    let out = d.join("figs");
+    for (extra, want) in [
+        (vec!["--material", "NOPE"], "--material 'NOPE'"),
+        (
+            vec!["--material", "GOLFYE", "--excitation", "200"],
+            "--excitation 200",
+        ),
+        (vec!["--material", "GOLFYE", "--worst", "0"], "--worst"),
+    ] {
+        let mut a = vec!["gmm", "figures", s(&d), "-o", s(&out)];
+        a.extend(extra.iter().copied());
+        let (code, _, err) = stokes(&a);
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+        assert!(!out.exists(), "{extra:?}: written");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}

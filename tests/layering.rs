@@ -44,7 +44,7 @@ const LAYERS: &[(&str, u32)] = &[
 /// `src/`.
 const CRATES: &[(&str, &[&str])] = &[
     // Font drawing of the PNG figures.
-    ("ab_glyph", &["experiment::figures::text", "gmm::boxplot"]),
+    ("ab_glyph", &["experiment::figures::text", "gmm::canvas"]),
     // Not used by the crate.
     ("anyhow", &[]),
     // Command-line parsing.
@@ -70,7 +70,7 @@ const CRATES: &[(&str, &[&str])] = &[
     // PNG images: the film's preview, the figures, the box plots.
     (
         "image",
-        &["film::output", "experiment::figures", "gmm::boxplot"],
+        &["film::output", "experiment::figures", "gmm::canvas"],
     ),
     // Progress bars: of a render, of a run and its steps, of a fit.
     (
@@ -96,8 +96,16 @@ const CRATES: &[(&str, &[&str])] = &[
     ("obvhs", &["geometry::bvh"]),
     ("palette", &["spectrum::colorimetry"]),
     // Plots.
-    ("plotters", &["experiment::figures::plots", "gmm::boxplot"]),
-    ("plotters_backend", &["gmm::boxplot"]),
+    (
+        "plotters",
+        &[
+            "experiment::figures::plots",
+            "gmm::boxplot",
+            "gmm::canvas",
+            "gmm::figures",
+        ],
+    ),
+    ("plotters_backend", &["gmm::boxplot", "gmm::canvas"]),
     // Random streams: of the samplers, and of the mixtures' fits.
     ("rand", &["integrator", "material::mixture::em"]),
     ("rand_pcg", &["integrator", "material::mixture::em"]),

@@ -16,7 +16,9 @@ mod tests;
 pub use choice::{Choice, ChoiceParser, choice};
 pub use diff::{DiffArgs, diff};
 pub use experiment::{ExperimentArgs, JobArgs, experiment, figures, job, report};
-pub use gmm::{GmmDenseArgs, GmmEvalArgs, GmmFitArgs, gmm_dense, gmm_eval, gmm_fit};
+pub use gmm::{
+    GmmDenseArgs, GmmEvalArgs, GmmFigsArgs, GmmFitArgs, gmm_dense, gmm_eval, gmm_figures, gmm_fit,
+};
 pub use inspect::inspect;
 pub use merge::{MergeArgs, merge};
 pub use png::{PngArgs, png};
@@ -89,6 +91,8 @@ pub enum GmmCommand {
     Dense(GmmDenseArgs),
     /// ΔE00 of fits against the measured matrices of a folder (Hua §7), with box plots.
     Eval(GmmEvalArgs),
+    /// Hua's Figs. 4, 5, 6, 7a and 8a from the fits of a folder of BFC files.
+    Figures(GmmFigsArgs),
 }
 
 /// Run a parsed command.
@@ -112,6 +116,7 @@ pub fn run(command: Command) -> Result<(), Error> {
             GmmCommand::Fit(a) => gmm_fit(&a),
             GmmCommand::Dense(a) => gmm_dense(&a),
             GmmCommand::Eval(a) => gmm_eval(&a),
+            GmmCommand::Figures(a) => gmm_figures(&a),
         },
     }
 }

@@ -4,154 +4,15 @@
 //! of the box (Tukey). Points beyond the whiskers are counted, not drawn.
 //!
 //! Quantiles interpolate linearly between order statistics (Hyndman & Fan type 7, the default of
-//! NumPy and R). Each figure is written as SVG and as PNG. The SVG's text is laid out with
-//! plotters' built-in estimate, as the project's other figures are; the PNG's text is drawn by
-//! [`TextBitmap`] with DejaVu Sans compiled into the binary (`data/fonts/`, through
-//! [`crate::experiment::figures::text`]), so no system font is read. (Plotters' own `ab_glyph` feature would do
-//! this through a process-wide font table, but it makes every plotters text lookup, SVG
-//! included, fail until a font is registered, which breaks the experiment figures.)
+//! NumPy and R). Each figure is written as SVG and as PNG, without system fonts
+//! ([`super::canvas`]).
 
-use crate::experiment::figures::text;
-use crate::io::output::write_atomic;
-use ab_glyph::FontRef;
+pub use super::canvas::TextBitmap;
+use super::canvas::{Figure, Raster, de, write_figure};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters_backend::{BackendColor, BackendCoord, DrawingErrorKind, text_anchor};
+use plotters_backend::text_anchor;
 use std::path::Path;
-
-/// A bitmap backend that draws text with the bundled font (plotters' bitmap backend, built
-/// without a font feature, draws none). Everything else goes to the inner backend.
-pub struct TextBitmap<'a> {
-    inner: BitMapBackend<'a>,
-    font: &'static FontRef<'static>,
-}
-
-impl<'a> TextBitmap<'a> {
-    /// Draw into an RGB8 buffer of `size.0 × size.1` pixels.
-    pub fn with_buffer(buf: &'a mut [u8], size: (u32, u32)) -> Result<Self, String> {
-        Ok(TextBitmap {
-            inner: BitMapBackend::with_buffer(buf, size),
-            font: text::font()?,
-        })
-    }
-
-    /// Layout of `text` at plotters' size `size` (the line height; as plotters' `ab_glyph`
-    /// backend): width from the advances and kerning, height the ascent minus the descent.
-    fn layout(&self, text: &str, size: f64) -> (f32, f32) {
-        text::layout(self.font, text, size as f32)
-    }
-}
-
-type BitmapError = DrawingErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
-
-impl DrawingBackend for TextBitmap<'_> {
-    type ErrorType = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
-
-    fn get_size(&self) -> (u32, u32) {
-        self.inner.get_size()
-    }
-    fn ensure_prepared(&mut self) -> Result<(), BitmapError> {
-        self.inner.ensure_prepared()
-    }
-    fn present(&mut self) -> Result<(), BitmapError> {
-        self.inner.present()
-    }
-    fn draw_pixel(&mut self, p: BackendCoord, c: BackendColor) -> Result<(), BitmapError> {
-        self.inner.draw_pixel(p, c)
-    }
-    fn draw_line<S: plotters_backend::BackendStyle>(
-        &mut self,
-        a: BackendCoord,
-        b: BackendCoord,
-        s: &S,
-    ) -> Result<(), BitmapError> {
-        self.inner.draw_line(a, b, s)
-    }
-    fn draw_rect<S: plotters_backend::BackendStyle>(
-        &mut self,
-        a: BackendCoord,
-        b: BackendCoord,
-        s: &S,
-        fill: bool,
-    ) -> Result<(), BitmapError> {
-        self.inner.draw_rect(a, b, s, fill)
-    }
-    fn draw_path<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
-        &mut self,
-        path: I,
-        s: &S,
-    ) -> Result<(), BitmapError> {
-        self.inner.draw_path(path, s)
-    }
-    fn draw_circle<S: plotters_backend::BackendStyle>(
-        &mut self,
-        c: BackendCoord,
-        r: u32,
-        s: &S,
-        fill: bool,
-    ) -> Result<(), BitmapError> {
-        self.inner.draw_circle(c, r, s, fill)
-    }
-    fn fill_polygon<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
-        &mut self,
-        vert: I,
-        s: &S,
-    ) -> Result<(), BitmapError> {
-        self.inner.fill_polygon(vert, s)
-    }
-
-    fn estimate_text_size<S: plotters_backend::BackendTextStyle>(
-        &self,
-        text: &str,
-        style: &S,
-    ) -> Result<(u32, u32), BitmapError> {
-        let (w, h) = self.layout(text, style.size());
-        Ok((w.ceil() as u32, h.ceil() as u32))
-    }
-
-    /// Text anchored and rotated as plotters' default `draw_text`, each glyph's coverage
-    /// blended into the bitmap.
-    fn draw_text<S: plotters_backend::BackendTextStyle>(
-        &mut self,
-        text: &str,
-        style: &S,
-        pos: BackendCoord,
-    ) -> Result<(), BitmapError> {
-        let colour = style.color();
-        if colour.alpha == 0.0 {
-            return Ok(());
-        }
-        let (w, h) = self.layout(text, style.size());
-        let dx = match style.anchor().h_pos {
-            text_anchor::HPos::Left => 0.0,
-            text_anchor::HPos::Center => -w / 2.0,
-            text_anchor::HPos::Right => -w,
-        };
-        let dy = match style.anchor().v_pos {
-            text_anchor::VPos::Top => 0.0,
-            text_anchor::VPos::Center => -h / 2.0,
-            text_anchor::VPos::Bottom => -h,
-        };
-        let trans = style.transform();
-        let mut pixels = Vec::new();
-        text::coverage(
-            self.font,
-            text,
-            style.size() as f32,
-            (dx, dy),
-            |x, y, cov| pixels.push((x, y, cov)),
-        );
-        for (x, y, cov) in pixels {
-            let (x, y) = trans.transform(x, y);
-            let c = BackendColor {
-                alpha: colour.alpha * cov as f64,
-                rgb: colour.rgb,
-            };
-            self.inner.draw_pixel((pos.0 + x, pos.1 + y), c)?;
-        }
-        Ok(())
-    }
-}
 
 /// The statistics one box shows.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -222,40 +83,33 @@ pub struct BoxFigure<'a> {
 
 const SIZE: (u32, u32) = (720, 480);
 
-fn de<E: std::fmt::Debug>(e: E) -> String {
-    format!("plot: {e:?}")
-}
-
 /// Draw the figure as `<stem>.svg` and `<stem>.png` (each written to a temporary file and
 /// renamed). Returns both paths.
 pub fn write_box_figure(stem: &Path, fig: &BoxFigure) -> Result<[std::path::PathBuf; 2], String> {
-    let svg_path = stem.with_extension("svg");
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
-        draw(&root, fig)?;
-        root.present().map_err(de)?;
+    write_box_figure_sized(stem, fig, SIZE)
+}
+
+/// [`write_box_figure`] at `size` pixels (for many boxes, or long labels).
+pub fn write_box_figure_sized(
+    stem: &Path,
+    fig: &BoxFigure,
+    size: (u32, u32),
+) -> Result<[std::path::PathBuf; 2], String> {
+    write_figure(stem, &Sized(fig, size))
+}
+
+struct Sized<'a, 'b>(&'a BoxFigure<'b>, (u32, u32));
+
+impl Figure for Sized<'_, '_> {
+    fn size(&self) -> (u32, u32) {
+        self.1
     }
-    crate::io::output::write_bytes(&svg_path, svg.as_bytes())?;
-    let png_path = stem.with_extension("png");
-    let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
-    {
-        let root = TextBitmap::with_buffer(&mut rgb, SIZE)?.into_drawing_area();
-        draw(&root, fig)?;
-        root.present().map_err(de)?;
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> Result<Vec<Raster>, String> {
+        draw(root, self.0).map(|()| Vec::new())
     }
-    write_atomic(&png_path, |tmp| {
-        image::save_buffer_with_format(
-            tmp,
-            &rgb,
-            SIZE.0,
-            SIZE.1,
-            image::ExtendedColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| format!("cannot write PNG '{}': {e}", png_path.display()))
-    })?;
-    Ok([svg_path, png_path])
 }
 
 /// The x axis of a box plot: `n` slots centred on 0, 1, …, n − 1 over [−0.5, n − 0.5], with a

@@ -58,35 +58,31 @@ pub struct Comparison {
     pub de00: f64,
 }
 
-/// Compare the colours of `measured` and `fitted` (same grid) under every illuminant and under
-/// unit monochromatic light in each excitation column (see the module notes for the whites).
-pub fn compare(
-    measured: &BfcMatrix,
-    fitted: &BfcMatrix,
-    illuminants: &[Illuminant],
-) -> Result<Vec<Comparison>, String> {
-    let grid = |m: &BfcMatrix| (m.em_lo, m.ex_lo, m.step, m.n_em, m.n_ex);
-    if grid(measured) != grid(fitted) || fitted.d.len() != measured.d.len() {
-        return Err(format!(
-            "the fitted matrix's grid (em_lo, ex_lo, step, n_em, n_ex) = {:?} differs from the measured {:?}",
-            grid(fitted),
-            grid(measured)
-        ));
+/// The colour of one matrix under one light: XYZ (Hua eq. 15 on the grid) and the white it is
+/// seen against (see the module notes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightColour {
+    /// The illuminant's name, or `mono-<nm>`.
+    pub light: String,
+    pub kind: LightKind,
+    pub white: [f64; 3],
+    pub xyz: [f64; 3],
+}
+
+impl LightColour {
+    /// L*a*b* relative to the light's white.
+    pub fn lab(&self) -> [f64; 3] {
+        xyz_to_lab(self.xyz, self.white)
     }
-    let em_wl: Vec<f32> = (0..measured.n_em).map(|o| measured.em(o)).collect();
-    let ex_wl: Vec<f32> = (0..measured.n_ex).map(|i| measured.ex(i)).collect();
+}
+
+/// The colours of `m` under every illuminant, then under unit monochromatic light in each
+/// excitation column, in that order.
+pub fn colours(m: &BfcMatrix, illuminants: &[Illuminant]) -> Result<Vec<LightColour>, String> {
+    let em_wl: Vec<f32> = (0..m.n_em).map(|o| m.em(o)).collect();
+    let ex_wl: Vec<f32> = (0..m.n_ex).map(|i| m.ex(i)).collect();
     let em_cmf = cmf_at(&em_wl);
     let mut out = Vec::with_capacity(illuminants.len() + ex_wl.len());
-    let mut push = |light: String, kind, white: [f64; 3], xm: [f64; 3], xf: [f64; 3]| {
-        let (lm, lf) = (xyz_to_lab(xm, white), xyz_to_lab(xf, white));
-        out.push(Comparison {
-            light,
-            kind,
-            lab_measured: lm,
-            lab_fitted: lf,
-            de00: delta_e00(lm, lf),
-        });
-    };
     for il in illuminants {
         let on_ex: Vec<f64> = ex_wl.iter().map(|&l| il.spectrum.eval(l) as f64).collect();
         let on_em: Vec<f64> = em_wl.iter().map(|&l| il.spectrum.eval(l) as f64).collect();
@@ -97,22 +93,92 @@ pub fn compare(
                 il.name
             ));
         }
-        let xm = bispectral_xyz(&measured.d, &em_cmf, &on_ex);
-        let xf = bispectral_xyz(&fitted.d, &em_cmf, &on_ex);
-        push(il.name.clone(), LightKind::Cie, white, xm, xf);
+        out.push(LightColour {
+            light: il.name.clone(),
+            kind: LightKind::Cie,
+            white,
+            xyz: bispectral_xyz(&m.d, &em_cmf, &on_ex),
+        });
     }
     let ee = spectrum_xyz(&em_wl, &vec![1.0; em_wl.len()]);
     let mono_white = ee.map(|c| c / ee[1]);
     for (i, &l) in ex_wl.iter().enumerate() {
-        let xm = bispectral_xyz_mono(&measured.d, &em_cmf, measured.n_ex, i);
-        let xf = bispectral_xyz_mono(&fitted.d, &em_cmf, fitted.n_ex, i);
-        push(format!("mono-{l:.0}"), LightKind::Mono, mono_white, xm, xf);
+        out.push(LightColour {
+            light: format!("mono-{l:.0}"),
+            kind: LightKind::Mono,
+            white: mono_white,
+            xyz: bispectral_xyz_mono(&m.d, &em_cmf, m.n_ex, i),
+        });
     }
-    if let Some(c) = out.iter().find(|c| !c.de00.is_finite()) {
+    Ok(out)
+}
+
+/// The grid of a matrix, (em_lo, ex_lo, step, n_em, n_ex).
+fn grid(m: &BfcMatrix) -> (f32, f32, f32, usize, usize) {
+    (m.em_lo, m.ex_lo, m.step, m.n_em, m.n_ex)
+}
+
+/// That `fitted` is on the grid of `measured`.
+pub fn check_grid(measured: &BfcMatrix, fitted: &BfcMatrix) -> Result<(), String> {
+    if grid(measured) != grid(fitted) || fitted.d.len() != measured.d.len() {
         return Err(format!(
-            "ΔE00 under {} is not finite (fitted L*a*b* {:?})",
-            c.light, c.lab_fitted
+            "the fitted matrix's grid (em_lo, ex_lo, step, n_em, n_ex) = {:?} differs from the measured {:?}",
+            grid(fitted),
+            grid(measured)
         ));
+    }
+    Ok(())
+}
+
+/// Compare the colours of `measured` and `fitted` (same grid) under every illuminant and under
+/// unit monochromatic light in each excitation column (see the module notes for the whites).
+pub fn compare(
+    measured: &BfcMatrix,
+    fitted: &BfcMatrix,
+    illuminants: &[Illuminant],
+) -> Result<Vec<Comparison>, String> {
+    check_grid(measured, fitted)?;
+    compare_colours(
+        &colours(measured, illuminants)?,
+        &colours(fitted, illuminants)?,
+    )
+}
+
+/// ΔE00 between two lists of [`colours`] of matrices on the same grid under the same lights.
+pub fn compare_colours(
+    measured: &[LightColour],
+    fitted: &[LightColour],
+) -> Result<Vec<Comparison>, String> {
+    if measured.len() != fitted.len() {
+        return Err(format!(
+            "{} colours against {} (not the same lights)",
+            measured.len(),
+            fitted.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(measured.len());
+    for (m, f) in measured.iter().zip(fitted) {
+        if m.light != f.light {
+            return Err(format!(
+                "the lights differ: {} against {}",
+                m.light, f.light
+            ));
+        }
+        let (lm, lf) = (m.lab(), xyz_to_lab(f.xyz, m.white));
+        let c = Comparison {
+            light: m.light.clone(),
+            kind: m.kind,
+            lab_measured: lm,
+            lab_fitted: lf,
+            de00: delta_e00(lm, lf),
+        };
+        if !c.de00.is_finite() {
+            return Err(format!(
+                "ΔE00 under {} is not finite (fitted L*a*b* {:?})",
+                c.light, c.lab_fitted
+            ));
+        }
+        out.push(c);
     }
     Ok(out)
 }

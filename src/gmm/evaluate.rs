@@ -2,20 +2,32 @@
 //! §7.2–7.5): every BFC matrix of a folder is fitted with each number of components, and the
 //! colour of the measured matrix is compared with the colour of the fitted one by CIEDE2000.
 //!
+//! **The reference** is the measured matrix as cleaned by Hua §5.1 (the matrix that is fitted);
+//! every row also compares the fit with the uncleaned measurement, and the cleaned matrix with
+//! it (`super::summary` explains the names).
+//!
 //! Outputs (written to a temporary file and renamed): `delta-e00.csv` (one row per material,
-//! number of components and light), `summary.json` (per number of components and kind of light:
-//! mean, median, 95th percentile and maximum of ΔE00 over all material × light pairs, and the ten
-//! materials with the largest mean ΔE00 under the CIE illuminants) and the box plots
-//! `boxplot-cie.{svg,png}`, `boxplot-mono.{svg,png}` over the same pairs (Hua Figs. 8b and 7b).
+//! number of components and light), `delta-e00-mono.csv` and `delta-e00-illuminants.csv` (per
+//! light and number of components, statistics over the materials: Hua Figs. 7a and 8a),
+//! `summary.json` (per number of components and kind of light: mean, median, 95th percentile and
+//! maximum of ΔE00 over all material × light pairs, against the cleaned and the raw matrices; the
+//! ten materials with the largest mean ΔE00 under the CIE illuminants and under monochromatic
+//! light, and the ten worst illuminants) and the box plots `boxplot-cie.{svg,png}`,
+//! `boxplot-mono.{svg,png}` over the same pairs (Hua Figs. 8b and 7b).
 //!
 //! The colours and their whites are computed by [`super::colour`], the matrices and illuminant
 //! tables read by [`super::inputs`], and the statistics of `summary.json` formed by
 //! [`super::summary`].
 
 use super::boxplot::{BoxFigure, BoxStats, write_box_figure};
-use super::colour::{LightKind, compare};
-use super::inputs::{embedded_illuminants, load_illuminants, load_matrices};
-use super::summary::{Row, Summary, summarise};
+use super::colour::{LightKind, check_grid, colours, compare_colours};
+use super::inputs::{
+    Illuminant, Measurement, embedded_illuminants, load_illuminants, load_measurements,
+};
+use super::summary::{
+    REFERENCE, REFERENCE_NOTE, Row, Summary, VsRaw, cleaning, field, per_light, per_light_csv,
+    summarise,
+};
 use crate::Error;
 use crate::material::mixture::{FitMethod, FitOptions, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
@@ -70,6 +82,34 @@ pub fn evaluate_with<F>(run: &Run, fit: &F) -> Result<Summary, Error>
 where
     F: Fn(&BfcMatrix, usize) -> Result<BfcMatrix, String> + Sync,
 {
+    let (materials, illuminants) = load_inputs(run)?;
+    check_output_folder(run.out)?;
+    let start = std::time::Instant::now();
+    let rows = compare_all(run, &materials, &illuminants, fit)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let mut summary = Summary {
+        reference: REFERENCE.to_string(),
+        reference_note: REFERENCE_NOTE.to_string(),
+        method: run.method,
+        seed: run.seed,
+        materials: materials.iter().map(|m| m.name.clone()).collect(),
+        illuminants: illuminants.iter().map(|i| i.name.clone()).collect(),
+        mono_wavelengths: materials
+            .first()
+            .map(|m| (0..m.cleaned.n_ex).map(|i| m.cleaned.ex(i)).collect())
+            .unwrap_or_default(),
+        per_components: summarise(&rows, run.components),
+        cleaning: cleaning(&rows, run.components),
+        seconds,
+        outputs: Vec::new(),
+    };
+    write_outputs(run, &rows, &mut summary).map_err(Error::runtime)?;
+    Ok(summary)
+}
+
+/// The matrices of `run.dir` (cleaned and raw) and the illuminants, after checking the numbers
+/// of components.
+pub fn load_inputs(run: &Run) -> Result<(Vec<Measurement>, Vec<Illuminant>), Error> {
     if run.components.is_empty() || run.components.contains(&0) {
         return Err(Error::input(format!(
             "the numbers of components must be at least 1, got {:?}",
@@ -80,70 +120,85 @@ where
         Some(d) => load_illuminants(d)?,
         None => embedded_illuminants()?,
     };
-    let materials = load_matrices(run.dir)?;
-    check_output_folder(run.out)?;
-    let start = std::time::Instant::now();
+    Ok((load_measurements(run.dir)?, illuminants))
+}
+
+/// Fit every material with each number of components and compare the colours: one row per
+/// material, number of components and light, against the cleaned matrix and the raw one.
+pub fn compare_all<F>(
+    run: &Run,
+    materials: &[Measurement],
+    illuminants: &[Illuminant],
+    fit: &F,
+) -> Result<Vec<Row>, Error>
+where
+    F: Fn(&BfcMatrix, usize) -> Result<BfcMatrix, String> + Sync,
+{
     let bar = crate::experiment::progress::bar(materials.len() as u64);
     let per_material: Vec<Vec<Row>> = materials
         .par_iter()
-        .map(|(path, name, m)| {
-            let mut rows = Vec::new();
-            for &k in run.components {
-                let fitted = fit(m, k).map_err(|e| {
-                    Error::runtime(format!("{}: fitting {k} components: {e}", path.display()))
-                })?;
-                let cs = compare(m, &fitted, &illuminants).map_err(|e| {
-                    Error::runtime(format!("{}: {k} components: {e}", path.display()))
-                })?;
-                rows.extend(cs.into_iter().map(|c| Row {
-                    material: name.clone(),
-                    components: k,
-                    c,
-                }));
-            }
+        .map(|m| {
+            let rows = material_rows(run, m, illuminants, fit);
             bar.inc(1);
-            Ok(rows)
+            rows
         })
         .collect::<Result<_, Error>>()?;
     bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
-    let rows: Vec<Row> = per_material.into_iter().flatten().collect();
-    let mut summary = Summary {
-        method: run.method,
-        seed: run.seed,
-        materials: materials.iter().map(|(_, n, _)| n.clone()).collect(),
-        illuminants: illuminants.iter().map(|i| i.name.clone()).collect(),
-        mono_wavelengths: materials
-            .first()
-            .map(|(_, _, m)| (0..m.n_ex).map(|i| m.ex(i)).collect())
-            .unwrap_or_default(),
-        per_components: summarise(&rows, run.components),
-        seconds,
-        outputs: Vec::new(),
-    };
-    write_outputs(run, &rows, &mut summary).map_err(Error::runtime)?;
-    Ok(summary)
+    Ok(per_material.into_iter().flatten().collect())
 }
 
-/// A CSV field, quoted when it holds a comma or a quote.
-fn field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
+/// The rows of one material.
+fn material_rows<F>(
+    run: &Run,
+    m: &Measurement,
+    illuminants: &[Illuminant],
+    fit: &F,
+) -> Result<Vec<Row>, Error>
+where
+    F: Fn(&BfcMatrix, usize) -> Result<BfcMatrix, String>,
+{
+    let path = m.path.display();
+    let err = |e: String| Error::runtime(format!("{path}: {e}"));
+    let cleaned = colours(&m.cleaned, illuminants).map_err(err)?;
+    let raw = colours(&m.raw, illuminants).map_err(err)?;
+    let cleaning = compare_colours(&raw, &cleaned).map_err(err)?;
+    let mut rows = Vec::new();
+    for &k in run.components {
+        let fitted = fit(&m.cleaned, k)
+            .map_err(|e| Error::runtime(format!("{path}: fitting {k} components: {e}")))?;
+        let err = |e: String| Error::runtime(format!("{path}: {k} components: {e}"));
+        check_grid(&m.cleaned, &fitted).map_err(err)?;
+        let fc = colours(&fitted, illuminants).map_err(err)?;
+        let vs_cleaned = compare_colours(&cleaned, &fc).map_err(err)?;
+        let vs_raw = compare_colours(&raw, &fc).map_err(err)?;
+        for ((c, r), e) in vs_cleaned.into_iter().zip(vs_raw).zip(&cleaning) {
+            rows.push(Row {
+                material: m.name.clone(),
+                components: k,
+                raw: VsRaw {
+                    lab_raw: r.lab_measured,
+                    de00_fit: r.de00,
+                    de00_cleaning: e.de00,
+                },
+                c,
+            });
+        }
     }
+    Ok(rows)
 }
 
-/// The text of `delta-e00.csv`.
+/// The text of `delta-e00.csv`: per row the colours of the cleaned matrix (the reference), of
+/// the raw measurement and of the fit, and ΔE00 of the fit against each and of the cleaned
+/// matrix against the raw one.
 pub fn csv_text(rows: &[Row], method: FitMethod) -> String {
     let method = method_name(method);
     let mut s = String::from(
-        "material,method,components,illuminant,kind,L_measured,a_measured,b_measured,L_fitted,a_fitted,b_fitted,de00\n",
+        "material,method,components,illuminant,kind,L_cleaned,a_cleaned,b_cleaned,L_raw,a_raw,b_raw,L_fitted,a_fitted,b_fitted,de00_fit_cleaned,de00_fit_raw,de00_cleaned_raw\n",
     );
     for r in rows {
-        let (m, f) = (r.c.lab_measured, r.c.lab_fitted);
+        let (m, w, f) = (r.c.lab_measured, r.raw.lab_raw, r.c.lab_fitted);
         s.push_str(&format!(
-            "{},{method},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}\n",
+            "{},{method},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}\n",
             field(&r.material),
             r.components,
             field(&r.c.light),
@@ -151,10 +206,15 @@ pub fn csv_text(rows: &[Row], method: FitMethod) -> String {
             m[0],
             m[1],
             m[2],
+            w[0],
+            w[1],
+            w[2],
             f[0],
             f[1],
             f[2],
-            r.c.de00
+            r.c.de00,
+            r.raw.de00_fit,
+            r.raw.de00_cleaning,
         ));
     }
     s
@@ -172,9 +232,9 @@ fn write_text(path: &Path, text: &str) -> Result<(), String> {
 }
 
 /// Before anything is fitted: the output folder exists (it is created) and takes new files, and
-/// nothing the evaluation writes there (`delta-e00.csv`, `summary.json`, the `.svg` and `.png`
+/// nothing the evaluation writes there (`delta-e00*.csv`, `summary.json`, the `.svg` and `.png`
 /// box plots) is anything but a regular file.
-fn check_output_folder(out: &Path) -> Result<(), Error> {
+pub(crate) fn check_output_folder(out: &Path) -> Result<(), Error> {
     let bad = |e: String| Error::input(format!("-o/--output '{}': {e}", out.display()));
     std::fs::create_dir_all(out)
         .map_err(|e| format!("cannot create the folder: {e}"))
@@ -184,7 +244,7 @@ fn check_output_folder(out: &Path) -> Result<(), Error> {
     for e in rd.flatten() {
         let p = e.path();
         let n = e.file_name().to_string_lossy().into_owned();
-        let ours = n == "delta-e00.csv"
+        let ours = (n.starts_with("delta-e00") && n.ends_with(".csv"))
             || n == "summary.json"
             || n.ends_with(".svg")
             || n.ends_with(".png");
@@ -205,6 +265,15 @@ fn write_outputs(run: &Run, rows: &[Row], summary: &mut Summary) -> Result<(), S
     let csv = run.out.join("delta-e00.csv");
     write_text(&csv, &csv_text(rows, run.method))?;
     summary.outputs.push(csv);
+    let lights = per_light(rows, run.components);
+    for (kind, name) in [
+        (LightKind::Mono, "delta-e00-mono.csv"),
+        (LightKind::Cie, "delta-e00-illuminants.csv"),
+    ] {
+        let path = run.out.join(name);
+        write_text(&path, &per_light_csv(&lights, kind))?;
+        summary.outputs.push(path);
+    }
     let method = method_name(run.method);
     for (kind, title) in [
         (LightKind::Cie, "CIE standard illuminants"),
@@ -297,7 +366,28 @@ mod tests {
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 1 + 2 * 2 * (59 + 49));
         assert!(lines[1].starts_with("GOLFORA,em,2,A,cie,"), "{}", lines[1]);
-        assert!(lines.iter().skip(1).all(|l| l.ends_with(",0.000000")));
+        let header: Vec<&str> = lines[0].split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (fc, fr, cr) = (
+            col("de00_fit_cleaned"),
+            col("de00_fit_raw"),
+            col("de00_cleaned_raw"),
+        );
+        // The "fit" is the cleaned matrix itself: no difference against the reference, and
+        // against the raw measurement exactly what the cleaning moves, which is not nothing.
+        let mut moved = 0;
+        for l in &lines[1..] {
+            let v: Vec<&str> = l.split(',').collect();
+            assert_eq!(v[fc], "0.000000", "{l}");
+            assert_eq!(v[fr], v[cr], "{l}");
+            moved += (v[cr] != "0.000000") as usize;
+        }
+        assert!(moved > 100, "{moved}");
+        assert_eq!(s.reference, "cleaned");
+        assert!(s.cleaning.cie.mean > 0.0 && s.cleaning.cie.n == 2 * 59);
+        assert_eq!(s.per_components[0].vs_raw.cie.mean, s.cleaning.cie.mean);
+        assert_eq!(s.per_components[0].worst_illuminants.len(), 10);
+        assert_eq!(s.per_components[0].worst_mono.len(), 2);
         assert_eq!(s.per_components.len(), 2);
         assert_eq!(s.per_components[0].cie.n, 2 * 59);
         assert_eq!(s.per_components[0].mono.n, 2 * 49);
@@ -315,6 +405,66 @@ mod tests {
                 .unwrap();
         assert_eq!(json["per_components"][1]["components"], 3);
         assert_eq!(json["per_components"][0]["cie"]["max"], 0.0);
+        assert_eq!(json["reference"], "cleaned");
+        assert!(json["cleaning"]["mono"]["mean"].as_f64().unwrap() > 0.0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The per-light CSVs hold the means over the materials of delta-e00.csv's rows, with their
+    /// wavelength or illuminant.
+    #[test]
+    fn per_light_csvs_agree_with_the_rows() {
+        let dir = two_files("per-light");
+        let out = dir.join("out");
+        let run = Run {
+            dir: &dir,
+            components: &[2, 4],
+            method: FitMethod::Em,
+            seed: 0,
+            out: &out,
+            illuminants_dir: None,
+        };
+        // A fit that differs by light: the cleaned matrix, scaled per number of components.
+        evaluate_with(&run, &|m, k| {
+            let mut f = m.clone();
+            f.d.iter_mut().for_each(|x| *x *= 1.0 + 0.05 * k as f32);
+            Ok(f)
+        })
+        .unwrap();
+        let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+        let all = read("delta-e00.csv");
+        let mut sums: std::collections::HashMap<(String, String), (f64, f64, usize)> =
+            Default::default();
+        for l in all.lines().skip(1) {
+            let v: Vec<&str> = l.split(',').collect();
+            let light = v[3].trim_start_matches("mono-").to_string();
+            let e = sums.entry((light, v[2].to_string())).or_default();
+            e.0 += v[14].parse::<f64>().unwrap();
+            e.1 += v[15].parse::<f64>().unwrap();
+            e.2 += 1;
+        }
+        let mut checked = 0;
+        for (f, n) in [
+            ("delta-e00-mono.csv", 49),
+            ("delta-e00-illuminants.csv", 59),
+        ] {
+            let text = read(f);
+            let lines: Vec<&str> = text.lines().collect();
+            assert_eq!(lines.len(), 1 + 2 * n, "{f}");
+            for l in &lines[1..] {
+                let v: Vec<&str> = l.split(',').collect();
+                let (sum, sum_raw, count) = sums[&(v[0].to_string(), v[1].to_string())];
+                assert_eq!(v[2], "2");
+                assert_eq!(count, 2);
+                let mean: f64 = v[3].parse().unwrap();
+                assert!((mean - sum / 2.0).abs() < 2e-6, "{f}: {l}");
+                let mean_raw: f64 = v[7].parse().unwrap();
+                assert!((mean_raw - sum_raw / 2.0).abs() < 2e-6, "{f}: {l}");
+                checked += (mean > 0.0) as usize;
+            }
+        }
+        assert!(checked > 50, "{checked}");
+        assert!(read("delta-e00-mono.csv").contains("\n550,4,2,"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -60,18 +60,43 @@ fn parse_illuminant(path: &Path, text: &str) -> Result<Illuminant, Error> {
 /// The `*.BFC` files of `dir` (any case), parsed and cleaned, sorted by file name, with the
 /// material name (the file stem).
 pub fn load_matrices(dir: &Path) -> Result<Vec<(PathBuf, String, BfcMatrix)>, Error> {
+    Ok(load_measurements(dir)?
+        .into_iter()
+        .map(|m| (m.path, m.name, m.cleaned))
+        .collect())
+}
+
+/// One measured matrix: as cleaned by Hua §5.1 (what is fitted, and the reference of the
+/// comparisons by default) and as measured ([`BfcMatrix::parse_raw`]).
+#[derive(Clone, Debug)]
+pub struct Measurement {
+    pub path: PathBuf,
+    /// The file stem.
+    pub name: String,
+    pub cleaned: BfcMatrix,
+    pub raw: BfcMatrix,
+}
+
+/// The `*.BFC` files of `dir` (any case), sorted by file name, each parsed both ways.
+pub fn load_measurements(dir: &Path) -> Result<Vec<Measurement>, Error> {
     let mut out = Vec::new();
     for path in files_with_extension(dir, "bfc", "BFC matrix")? {
         let text =
             crate::io::input::read_text(&path, crate::io::input::BFC).map_err(Error::input)?;
-        let m = BfcMatrix::parse(&text)
-            .map_err(|e| Error::input(format!("{}: {e}", path.display())))?;
+        let bad = |e: String| Error::input(format!("{}: {e}", path.display()));
+        let cleaned = BfcMatrix::parse(&text).map_err(bad)?;
+        let raw = BfcMatrix::parse_raw(&text).map_err(bad)?;
         let name = path
             .file_stem()
             .unwrap_or_default()
             .to_string_lossy()
             .to_string();
-        out.push((path, name, m));
+        out.push(Measurement {
+            path,
+            name,
+            cleaned,
+            raw,
+        });
     }
     Ok(out)
 }

@@ -4,8 +4,10 @@
 //! (`boxplot`).
 
 pub mod boxplot;
+pub mod canvas;
 pub mod colour;
 pub mod evaluate;
+pub mod figures;
 pub mod fit;
 pub mod inputs;
 pub mod summary;

@@ -91,6 +91,25 @@ impl BfcMatrix {
     /// Parse a BFC-450 matrix file and clean it (Hua §5.1). Errors name the line and what is
     /// wrong.
     pub fn parse(text: &str) -> Result<Self, String> {
+        Self::parse_with(text, true)
+    }
+
+    /// The matrix as measured, without Hua §5.1's cleaning: the values below the diagonal and
+    /// the negative ones are kept. A file is accepted exactly when [`BfcMatrix::parse`] accepts
+    /// it (the bounds are checked on the cleaned values), and the two differ only on the
+    /// cleaned cells. For comparisons with the measurement (`stokes gmm eval`), not rendering.
+    pub fn parse_raw(text: &str) -> Result<Self, String> {
+        Self::parse_with(text, false)
+    }
+
+    /// Whether Hua §5.1's cleaning zeroes the value `x` at emission `lo`, excitation `li`: below
+    /// the diagonal (λo < λi is unphysical) or negative (noise).
+    #[inline]
+    pub fn is_cleaned(lo: f32, li: f32, x: f32) -> bool {
+        lo < li - 1e-3 || x < 0.0
+    }
+
+    fn parse_with(text: &str, clean: bool) -> Result<Self, String> {
         // A UTF-8 byte-order mark (some editors write one) is skipped, as the other readers do.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
@@ -175,9 +194,7 @@ impl BfcMatrix {
                 if !x.is_finite() {
                     return Err(format!("line {no}: value {} is not finite", i + 1));
                 }
-                let li = ex_lo + i as f32 * step;
-                // Hua §5.1 cleaning: λo < λi is unphysical, negative values are noise.
-                d[o * n_ex + i] = if lo < li - 1e-3 || x < 0.0 { 0.0 } else { x };
+                d[o * n_ex + i] = x;
             }
             row_line[o] = no;
             rows_seen += 1;
@@ -185,7 +202,7 @@ impl BfcMatrix {
         if rows_seen != n_em {
             return Err(format!("expected {n_em} emission rows, found {rows_seen}"));
         }
-        let m = BfcMatrix {
+        let raw = BfcMatrix {
             em_lo,
             ex_lo,
             step,
@@ -193,8 +210,16 @@ impl BfcMatrix {
             n_ex,
             d,
         };
+        let mut m = raw.clone();
+        for o in 0..n_em {
+            for i in 0..n_ex {
+                if Self::is_cleaned(m.em(o), m.ex(i), m.d[o * n_ex + i]) {
+                    m.d[o * n_ex + i] = 0.0;
+                }
+            }
+        }
         m.check_bounds(&row_line)?;
-        Ok(m)
+        Ok(if clean { m } else { raw })
     }
 
     /// The cleaned entries are at most [`MAX_BFC_ENTRY`] and every excitation column's albedo
@@ -802,6 +827,46 @@ mod tests {
         let r0 = rows.iter().position(|l| l.starts_with("380\t-")).unwrap();
         let dup = GOLFYE.replacen(rows[r0 + 1], rows[r0], 1);
         assert!(BfcMatrix::parse(&dup).unwrap_err().contains("twice"));
+    }
+
+    /// The raw parse keeps the measurement; the cleaned one differs from it exactly on the cells
+    /// below the diagonal and the negative ones, which it zeroes (Hua §5.1).
+    #[test]
+    fn raw_and_cleaned_parses_differ_exactly_on_the_cleaned_cells() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/bispectral");
+        let (mut below, mut negative) = (0, 0);
+        for f in ["GOLFYE.BFC", "rit/HERPICHA.BFC", "rit/IXCAXORA.BFC"] {
+            let text = std::fs::read_to_string(dir.join(f)).unwrap();
+            let (m, raw) = (
+                BfcMatrix::parse(&text).unwrap(),
+                BfcMatrix::parse_raw(&text).unwrap(),
+            );
+            assert_eq!(
+                (m.n_em, m.n_ex, m.em_lo, m.ex_lo),
+                (raw.n_em, raw.n_ex, 380.0, 300.0)
+            );
+            for o in 0..m.n_em {
+                for i in 0..m.n_ex {
+                    let (c, r) = (m.d[o * m.n_ex + i], raw.d[o * m.n_ex + i]);
+                    let under = m.em(o) < m.ex(i);
+                    below += (under && r != 0.0) as usize;
+                    negative += (!under && r < 0.0) as usize;
+                    if under || r < 0.0 {
+                        assert_eq!(c, 0.0, "{f} ({}, {})", m.em(o), m.ex(i));
+                    } else {
+                        assert_eq!(c, r, "{f} ({}, {})", m.em(o), m.ex(i));
+                    }
+                }
+            }
+        }
+        // The files do hold values the cleaning removes, on both counts.
+        assert!(
+            below > 100 && negative > 10,
+            "{below} below, {negative} negative"
+        );
+        // What the cleaned parse refuses, the raw parse refuses too.
+        let bad = GOLFYE.replacen("0.313414", "2e9", 1);
+        assert!(BfcMatrix::parse(&bad).is_err() && BfcMatrix::parse_raw(&bad).is_err());
     }
 
     #[test]

@@ -207,3 +207,34 @@ fn diff_png_and_inspect_parse() {
     let e = refused(&["inspect"]);
     assert_eq!(e.kind(), ClapKind::MissingRequiredArgument);
 }
+
+#[test]
+fn gmm_figures_parses_fig4_options_and_defaults() {
+    let Ok(Command::Gmm {
+        command: GmmCommand::Figures(a),
+    }) = parse(&["gmm", "figures", "rit"])
+    else {
+        panic!("not gmm figures");
+    };
+    assert_eq!(a.components, [2, 4, 8]);
+    assert_eq!((a.material.as_str(), a.excitation), ("HERPICH", 440.0));
+    assert_eq!((a.worst, a.output.is_none()), (5, true));
+    let Ok(Command::Gmm {
+        command: GmmCommand::Figures(a),
+    }) = parse(&[
+        "gmm",
+        "figures",
+        "rit",
+        "--material",
+        "golfye",
+        "--excitation",
+        "360",
+        "-o",
+        "figs",
+    ])
+    else {
+        panic!("not gmm figures");
+    };
+    assert_eq!((a.material.as_str(), a.excitation), ("golfye", 360.0));
+    assert_eq!(a.output.as_deref(), Some(Path::new("figs")));
+}

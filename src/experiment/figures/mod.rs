@@ -12,7 +12,7 @@ mod plots;
 mod sheet;
 pub mod text;
 
-pub use colour::{exposure, luminance};
+pub use colour::{exposure, luminance, ramp};
 pub use difference::difference_of_images;
 pub use plots::sweep_summary;
 

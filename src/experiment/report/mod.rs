@@ -13,6 +13,8 @@ mod images;
 mod plots;
 mod tables;
 
+pub use encode::base64;
+
 use super::figures::resolve_run_dir;
 use super::record::{RunInfo, check_complete, read_metrics, write_text};
 use super::sweep::SweepRecord;
