@@ -6,6 +6,7 @@ mod choice;
 mod diff;
 mod experiment;
 mod gmm;
+mod gmm_robust;
 mod inspect;
 mod merge;
 mod png;
@@ -17,6 +18,7 @@ pub use choice::{Choice, ChoiceParser, choice};
 pub use diff::{DiffArgs, diff};
 pub use experiment::{ExperimentArgs, JobArgs, experiment, figures, job, report};
 pub use gmm::{GmmDenseArgs, GmmEvalArgs, GmmFitArgs, gmm_dense, gmm_eval, gmm_fit};
+pub use gmm_robust::{GmmRobustnessArgs, gmm_robustness};
 pub use inspect::inspect;
 pub use merge::{MergeArgs, merge};
 pub use png::{PngArgs, png};
@@ -89,6 +91,9 @@ pub enum GmmCommand {
     Dense(GmmDenseArgs),
     /// ΔE00 of fits against the measured matrices of a folder (Hua §7), with box plots.
     Eval(GmmEvalArgs),
+    /// How much a fit's ΔE00 depends on its seed, with one start and with restarts, and the
+    /// number of Gaussians BIC chooses against where ΔE00 stops improving.
+    Robustness(GmmRobustnessArgs),
 }
 
 /// Run a parsed command.
@@ -112,6 +117,7 @@ pub fn run(command: Command) -> Result<(), Error> {
             GmmCommand::Fit(a) => gmm_fit(&a),
             GmmCommand::Dense(a) => gmm_dense(&a),
             GmmCommand::Eval(a) => gmm_eval(&a),
+            GmmCommand::Robustness(a) => gmm_robustness(&a),
         },
     }
 }

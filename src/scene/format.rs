@@ -133,6 +133,8 @@ pub enum MaterialDesc {
         method: Option<crate::material::mixture::FitMethod>,
         #[serde(default)]
         seed: Option<u64>,
+        #[serde(default)]
+        restarts: Option<usize>,
     },
 }
 

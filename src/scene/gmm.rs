@@ -1,5 +1,6 @@
 //! The `reradiation-gmm` material's model: a fitted file, or a BFC matrix fitted at load time
-//! and cached by the SHA-256 of the matrix file and the fit settings.
+//! and cached by the SHA-256 of the matrix file and the fit settings (the number of starts
+//! included, so a new default number of starts fits again).
 //!
 //! The cache folder is `$STOKES_CACHE_DIR`, else `$XDG_CACHE_HOME/stokes`, else
 //! `$HOME/.cache/stokes`; its `gmm/` subfolder holds one model file per key. A cache entry that
@@ -8,6 +9,7 @@
 
 use crate::io::InputError;
 use crate::io::hash::sha256_hex;
+use crate::material::mixture::fit::MAX_RESTARTS;
 use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
 use std::path::{Path, PathBuf};
@@ -22,6 +24,7 @@ pub struct GmmSource {
     pub components: Option<usize>,
     pub method: Option<FitMethod>,
     pub seed: Option<u64>,
+    pub restarts: Option<usize>,
 }
 
 /// The model of the material at JSON path `base` of scene `scene`, resolved from `dir`.
@@ -39,6 +42,7 @@ pub fn load(
                 (src.components.is_some(), "components"),
                 (src.method.is_some(), "method"),
                 (src.seed.is_some(), "seed"),
+                (src.restarts.is_some(), "restarts"),
             ] {
                 if set {
                     return Err(err(
@@ -71,11 +75,17 @@ pub fn load(
                         format!("malformed BFC file '{}': {m}", full.display()),
                     )
                 })?;
-            let opt = FitOptions::new(
+            let mut opt = FitOptions::new(
                 src.components.unwrap_or(DEFAULT_COMPONENTS),
                 src.method.unwrap_or_default(),
                 src.seed.unwrap_or(0),
             );
+            if let Some(r) = src.restarts {
+                if !(1..=MAX_RESTARTS).contains(&r) {
+                    return Err(err("restarts", format!("{r} is not in 1..={MAX_RESTARTS}")));
+                }
+                opt.restarts = r;
+            }
             if let Some(k) = src.components
                 && !(1..=crate::material::mixture::conditional::MAX_COMPONENTS).contains(&k)
             {
