@@ -3,7 +3,8 @@
 
 Writes scenes/gmm-swatches.json (every swatch the measured matrix, material `reradiation`) and
 scenes/gmm-swatches-2.json, -4.json, -8.json (the same swatches as `reradiation-gmm` fitted at
-load with K = 2, 4, 8 Gaussians, weighted EM, seed 0; fits are cached, see src/scene/gmm.rs) and
+load with K = 2, 4, 8 Gaussians, weighted EM, seed 0 and one start (`"restarts": 1`, as when the
+gmm-vs-matrix and gmm-sampling results were made); fits are cached, see src/scene/gmm.rs) and
 scenes/gmm-swatches-sampled-2.json, -4.json, -8.json (the measured matrices again, their shifts
 drawn from those mixtures: `"sampling": {"type": "mixture"}`, the tables' share 0.1).
 
@@ -229,11 +230,11 @@ def scene(chosen, rank, k, sampled=False):
     elif sampled:
         kind = (
             "the measured matrices (material `reradiation`, evaluated exactly) with their shifts drawn from Gaussian "
-            f"mixtures of K = {k} fitted at load by weighted EM, seed 0 (`sampling`: `mixture`, cached), the tables' "
+            f"mixtures of K = {k} fitted at load by weighted EM, seed 0, one start (`sampling`: `mixture`, cached), the tables' "
             "share 0.1 (Hua's sampling-only use)"
         )
     else:
-        kind = f"Gaussian mixtures of K = {k} fitted at load by weighted EM, seed 0 (material `reradiation-gmm`, cached)"
+        kind = f"Gaussian mixtures of K = {k} fitted at load by weighted EM, seed 0, one start (material `reradiation-gmm`, cached)"
 
     comment = (
         "gmm-vs-matrix (Hua 2022): 24 RIT bispectral swatches laid out like a ColorChecker (6×4 quads "
@@ -264,10 +265,10 @@ def scene(chosen, rank, k, sampled=False):
             materials[name] = {
                 "type": "reradiation",
                 "file": path,
-                "sampling": {"type": "mixture", "components": k, "method": "em", "seed": 0, "defensive": 0.1},
+                "sampling": {"type": "mixture", "components": k, "method": "em", "seed": 0, "restarts": 1, "defensive": 0.1},
             }
         else:
-            materials[name] = {"type": "reradiation-gmm", "bfc": path, "components": k, "method": "em", "seed": 0}
+            materials[name] = {"type": "reradiation-gmm", "bfc": path, "components": k, "method": "em", "seed": 0, "restarts": 1}
         shapes.append({"type": "quad", "name": name, "material": name, "corners": quad(x0, x0 + size, y1 - size, y1, 0.0)})
     materials["backdrop"] = {"type": "lambert", "reflectance": 0.05}
     materials["black"] = {"type": "lambert", "reflectance": 0.0}

@@ -325,8 +325,8 @@ fn scene_error(tag: &str, material: &str, files: &[(&str, &str)]) -> String {
     }
 }
 
-/// A `reradiation-gmm` material with both `file` and `bfc`, with neither, with `components: 0`,
-/// with a missing file or with a malformed model file fails naming the scene file and the field.
+/// A `reradiation-gmm` material with both `file` and `bfc`, with neither, with `components: 0`
+/// or `restarts: 0`, with settings of a fit beside a fitted `file`, with a missing file or with a malformed model file fails naming the scene file and the field.
 #[test]
 fn malformed_gmm_materials_name_the_scene_file_and_the_field() {
     let fitted = fit_matrix(
@@ -342,7 +342,7 @@ fn malformed_gmm_materials_name_the_scene_file_and_the_field() {
     };
     let bad_model = edited(|f| f.scale = -1.0);
     let bad_weight = edited(|f| f.components[0].weight = -0.5);
-    let cases: [Case; 7] = [
+    let cases: [Case; 9] = [
         (
             "both",
             r#"{"type": "reradiation-gmm", "file": "m.json", "bfc": "g.bfc"}"#,
@@ -360,6 +360,18 @@ fn malformed_gmm_materials_name_the_scene_file_and_the_field() {
             r#"{"type": "reradiation-gmm", "bfc": "g.bfc", "components": 0}"#,
             &[("g.bfc", BFC)],
             &["materials.dye.components"],
+        ),
+        (
+            "zero-restarts",
+            r#"{"type": "reradiation-gmm", "bfc": "g.bfc", "restarts": 0}"#,
+            &[("g.bfc", BFC)],
+            &["materials.dye.restarts", "1..="],
+        ),
+        (
+            "restarts-with-file",
+            r#"{"type": "reradiation-gmm", "file": "m.json", "restarts": 4}"#,
+            &[("m.json", &model)],
+            &["materials.dye.restarts", "`bfc`"],
         ),
         (
             "components-with-file",

@@ -59,6 +59,47 @@ fn fits_are_deterministic_and_written_atomically() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// `--restarts 1` is the single start from `--seed` (its model file has no `restarts` field, as
+/// the files written before restarts existed), the default keeps a start at least as likely;
+/// `--components auto` records every K's BIC and `--scale error` its scale method.
+#[test]
+fn restarts_automatic_components_and_the_error_scale() {
+    let d = tmpdir("restarts");
+    let bfc = d.join("GOLFYE.BFC");
+    std::fs::write(&bfc, GOLFYE).unwrap();
+    let fit = |args: &[&str], name: &str| -> serde_json::Value {
+        let out = d.join(name);
+        let mut a = vec!["gmm", "fit", s(&bfc), "-o", s(&out)];
+        a.extend(args);
+        let (code, _, err) = stokes(&a);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap()
+    };
+    let one = fit(&["--components", "2", "--restarts", "1"], "one.json");
+    let many = fit(&["--components", "2"], "many.json");
+    assert!(one["fit"]["options"].get("restarts").is_none(), "{one}");
+    assert!(one["fit"].get("restart").is_none());
+    let default = stokes::material::mixture::fit::DEFAULT_RESTARTS;
+    assert_eq!(many["fit"]["options"]["restarts"], default);
+    let ll = |v: &serde_json::Value| v["fit"]["log_likelihood"].as_f64().unwrap();
+    assert!(ll(&many) >= ll(&one), "{} < {}", ll(&many), ll(&one));
+    let auto = fit(&["--components", "auto:5"], "auto.json");
+    assert_eq!(auto["fit"]["options"]["auto_components"], true);
+    assert_eq!(auto["fit"]["options"]["components"], 5);
+    let bic = auto["fit"]["bic"].as_array().unwrap();
+    assert_eq!(bic.len(), 5);
+    let k = auto["components"].as_array().unwrap().len();
+    let min = bic
+        .iter()
+        .map(|b| b.as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(bic[k - 1].as_f64().unwrap(), min, "{bic:?}, K = {k}");
+    let err = fit(&["--components", "2", "--scale", "error"], "error.json");
+    assert_eq!(err["fit"]["options"]["scale_method"], "error");
+    assert_ne!(err["scale"], many["scale"]);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 #[test]
 fn bad_bfc_files_name_the_file_and_field() {
     let header = "380\t780\t10\t49\t300\t10";
@@ -128,6 +169,12 @@ fn bad_options_and_model_files_are_input_errors() {
         (vec!["--components", "33"], "components"),
         (vec!["--tolerance=-1"], "tolerance"),
         (vec!["--max-iterations", "0"], "max_iterations"),
+        (vec!["--restarts", "0"], "--restarts"),
+        (vec!["--restarts", "1001"], "--restarts"),
+        (vec!["--components", "auto:0"], "--components"),
+        (vec!["--components", "auto:33"], "--components"),
+        (vec!["--components", "automatic"], "--components"),
+        (vec!["--scale", "l1"], "--scale"),
     ] {
         let mut a = vec!["gmm", "fit", s(&bfc), "-o", s(&out)];
         a.extend(args.iter());
@@ -139,6 +186,24 @@ fn bad_options_and_model_files_are_input_errors() {
     assert_eq!(code, 2);
     assert!(err.contains("missing.BFC"), "{err}");
     let (code, _, err) = stokes(&["gmm", "eval", s(&d.join("nowhere")), "-o", s(&d)]);
+    assert_eq!(code, 2);
+    assert!(err.contains("nowhere"), "{err}");
+    let (code, _, err) = stokes(&["gmm", "eval", s(&d), "--restarts", "0", "-o", s(&d)]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--restarts"), "{err}");
+    for (args, want) in [
+        (vec!["--max-components", "0"], "--max-components"),
+        (vec!["--components", "2,0"], "--components"),
+        (vec!["--seeds", "0"], "--seeds"),
+        (vec!["--restarts", "0"], "--restarts"),
+    ] {
+        let mut a = vec!["gmm", "robustness", s(&d), "-o", s(&d)];
+        a.extend(args.iter());
+        let (code, _, err) = stokes(&a);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    let (code, _, err) = stokes(&["gmm", "robustness", s(&d.join("nowhere")), "-o", s(&d)]);
     assert_eq!(code, 2);
     assert!(err.contains("nowhere"), "{err}");
     // Malformed model files, through `gmm dense` and through a scene.
@@ -201,13 +266,13 @@ fn fits_at_load_are_cached_by_content_and_settings() {
     let d = tmpdir("cache");
     let cache = d.join("cache");
     std::fs::write(d.join("GOLFYE.BFC"), GOLFYE).unwrap();
-    let scene = |components: usize| {
-        let p = d.join(format!("scene-{components}.json"));
+    let scene_with = |components: usize, extra: &str| {
+        let p = d.join(format!("scene-{components}{}.json", extra.len()));
         std::fs::write(
             &p,
             format!(
                 r#"{{"camera": {{"origin": [0, 0, 3], "target": [0, 0, 0], "fov": 40, "width": 4, "height": 4}},
-                 "materials": {{"m": {{"type": "reradiation-gmm", "bfc": "GOLFYE.BFC", "components": {components}}}}},
+                 "materials": {{"m": {{"type": "reradiation-gmm", "bfc": "GOLFYE.BFC", "components": {components}{extra}}}}},
                  "shapes": [{{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 1,
                               "emission": {{"spectrum": 1}}}}]}}"#
             ),
@@ -215,6 +280,7 @@ fn fits_at_load_are_cached_by_content_and_settings() {
         .unwrap();
         p
     };
+    let scene = |components: usize| scene_with(components, "");
     let inspect = |p: &Path| {
         let out = Command::new(env!("CARGO_BIN_EXE_stokes"))
             .args(["inspect", s(p)])
@@ -259,16 +325,35 @@ fn fits_at_load_are_cached_by_content_and_settings() {
     let (_, err) = inspect(&three);
     assert!(err.contains("stale or damaged"), "{err}");
     assert_eq!(std::fs::read_to_string(&e[0]).unwrap(), text);
-    // Other settings, and the same settings on another file, are other entries.
+    // Other settings, and the same settings on another file, are other entries: the number of
+    // starts is part of the key (and of the model's options).
     inspect(&scene(2));
     assert_eq!(entries().len(), 2);
+    inspect(&scene_with(3, r#", "restarts": 1"#));
+    let e = entries();
+    assert_eq!(e.len(), 3);
+    let restarts: Vec<usize> = e
+        .iter()
+        .map(|p| {
+            let f = stokes::material::mixture::GmmFile::parse(&std::fs::read_to_string(p).unwrap())
+                .unwrap();
+            f.fit.options.restarts
+        })
+        .collect();
+    let default = stokes::material::mixture::fit::DEFAULT_RESTARTS;
+    assert_eq!(
+        restarts.iter().filter(|&&r| r == 1).count(),
+        1,
+        "{restarts:?}"
+    );
+    assert_eq!(restarts.iter().filter(|&&r| r == default).count(), 2);
     std::fs::write(
         d.join("GOLFYE.BFC"),
         GOLFYE.replacen("0.313414", "0.3134", 1),
     )
     .unwrap();
     inspect(&three);
-    assert_eq!(entries().len(), 3);
+    assert_eq!(entries().len(), 4);
     std::fs::remove_dir_all(&d).unwrap();
 }
 

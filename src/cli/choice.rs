@@ -4,7 +4,7 @@ use crate::integrator::{
     IntegratorKind, LaneWeighting, LightWavelengths, MisHeuristic, ResetChoice,
 };
 use crate::material::WavelengthSampling;
-use crate::material::mixture::FitMethod;
+use crate::material::mixture::{FitMethod, ScaleMethod};
 use crate::medium::Tracking;
 use crate::spectrum::cie::CameraWavelengths;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
@@ -47,6 +47,7 @@ choices!(
     LightWavelengths,
     MisHeuristic,
     ResetChoice,
+    ScaleMethod,
     Tracking,
     WavelengthSampling,
 );

@@ -5,6 +5,7 @@ use super::{choice, output_error};
 use crate::Error;
 use crate::io::output::{canonical_output, check_output};
 use crate::io::text::show_path;
+use crate::material::mixture::fit::{MAX_RESTARTS, ScaleMethod};
 use crate::material::mixture::{FitMethod, FitOptions};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -19,9 +20,10 @@ fn fit_defaults() -> FitOptions {
 pub struct GmmFitArgs {
     /// A BFC file, or a folder of them.
     pub input: PathBuf,
-    /// Gaussians per mixture (at most 32; `bayes` may use fewer).
-    #[arg(long, default_value_t = fit_defaults().components)]
-    pub components: usize,
+    /// Gaussians per mixture (at most 32; `bayes` may use fewer), or `auto` / `auto:MAX` to
+    /// choose up to MAX (default 8): by BIC for `em`, by the fit's own pruning for `bayes`.
+    #[arg(long, value_parser = parse_components, default_value = "8")]
+    pub components: Components,
     /// Weighted EM, or weighted variational Bayesian inference (Hua §5.2).
     #[arg(long, value_parser = choice::<FitMethod>(), default_value = fit_defaults().method.name())]
     pub method: FitMethod,
@@ -37,6 +39,14 @@ pub struct GmmFitArgs {
     /// Output model file (one input file) or folder (a folder of inputs: `<STEM>.json` each).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Seeded k-means++ starts per fit; the best final log-likelihood is kept (start 0 uses
+    /// `--seed` itself, so 1 is a single start from it).
+    #[arg(long, value_parser = parse_restarts, default_value_t = fit_defaults().restarts)]
+    pub restarts: usize,
+    /// The scale S of ρ = S·p: the integral ratio (Hua eq. 5) or least squares over the matrix
+    /// cells (eq. 4).
+    #[arg(long, value_parser = choice::<ScaleMethod>(), default_value = fit_defaults().scale_method.name())]
+    pub scale: ScaleMethod,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -112,9 +122,12 @@ pub fn gmm_dense(a: &GmmDenseArgs) -> Result<(), Error> {
 }
 
 pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
-    let mut opt = FitOptions::new(a.components, a.method, a.seed);
+    let mut opt = FitOptions::new(a.components.count, a.method, a.seed);
     opt.max_iterations = a.max_iterations;
     opt.tolerance = a.tolerance;
+    opt.restarts = a.restarts;
+    opt.scale_method = a.scale;
+    opt.auto_components = a.components.auto;
     if !a.input.exists() {
         return Err(Error::input(format!(
             "'{}' does not exist (give a BFC file or a folder of them)",
@@ -141,6 +154,10 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
             m.scale,
             f.output.display()
         );
+        if !m.fit.bic.is_empty() {
+            let b: Vec<String> = m.fit.bic.iter().map(|b| format!("{b:.1}")).collect();
+            println!("  BIC for K = 1..={}: {}", m.fit.bic.len(), b.join(" "));
+        }
     }
     let unconverged = fitted.iter().filter(|f| !f.model.fit.converged).count();
     println!(
@@ -149,6 +166,11 @@ pub fn gmm_fit(a: &GmmFitArgs) -> Result<(), Error> {
         a.components,
         a.method,
         a.seed
+    );
+    println!(
+        "  best of {} starts each, scale by {}",
+        a.restarts,
+        a.scale.name()
     );
     Ok(())
 }
@@ -221,17 +243,21 @@ pub struct GmmEvalArgs {
     /// Output folder: delta-e00.csv, summary.json, box plots.
     #[arg(short, long, default_value = crate::gmm::evaluate::DEFAULT_OUT)]
     pub output: PathBuf,
+    /// Seeded k-means++ starts per fit (as `gmm fit --restarts`).
+    #[arg(long, value_parser = parse_restarts, default_value_t = fit_defaults().restarts)]
+    pub restarts: usize,
 }
 
 /// ΔE00 of fitted against measured matrices under CIE illuminants and monochromatic light.
 pub fn gmm_eval(a: &GmmEvalArgs) -> Result<(), Error> {
-    let s = crate::gmm::evaluate::evaluate(
+    let s = crate::gmm::evaluate::evaluate_restarts(
         &a.dir,
         &a.components,
         a.method,
         a.seed,
         &a.output,
         a.illuminants.as_deref(),
+        a.restarts,
     )?;
     println!(
         "{} matrices, {} illuminants, {} monochromatic lines, {:?} fits, {:.1} s",
@@ -323,6 +349,9 @@ pub struct GmmFigsArgs {
     /// How many of the worst materials Figs. 5 and 6 show (and worst illuminants Fig. 5).
     #[arg(long, default_value_t = 5)]
     pub worst: usize,
+    /// Seeded k-means++ starts per fit (as `gmm fit --restarts`).
+    #[arg(long, value_parser = parse_restarts, default_value_t = fit_defaults().restarts)]
+    pub restarts: usize,
     /// Output folder [default: results/gmm-eval/<method>/figures].
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -343,6 +372,7 @@ pub fn gmm_figures(a: &GmmFigsArgs) -> Result<(), Error> {
             seed: a.seed,
             out: &out,
             illuminants_dir: a.illuminants.as_deref(),
+            restarts: a.restarts,
         },
         material: &a.material,
         excitation: a.excitation,
@@ -376,4 +406,62 @@ pub fn gmm_figures(a: &GmmFigsArgs) -> Result<(), Error> {
         println!("{}", f.display());
     }
     Ok(())
+}
+
+/// Default maximum of `--components auto`.
+pub const AUTO_MAX_COMPONENTS: usize = 8;
+
+/// `--components`: a number of Gaussians, or the maximum of an automatic choice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Components {
+    pub count: usize,
+    pub auto: bool,
+}
+
+impl std::fmt::Display for Components {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.auto {
+            write!(f, "auto:{}", self.count)
+        } else {
+            write!(f, "{}", self.count)
+        }
+    }
+}
+
+/// `N`, `auto` (up to [`AUTO_MAX_COMPONENTS`]) or `auto:MAX`, with N and MAX in 1..=32.
+pub fn parse_components(s: &str) -> Result<Components, String> {
+    let max = crate::material::mixture::conditional::MAX_COMPONENTS;
+    let (text, auto) = match s.strip_prefix("auto") {
+        Some("") => {
+            return Ok(Components {
+                count: AUTO_MAX_COMPONENTS,
+                auto: true,
+            });
+        }
+        Some(rest) => match rest.strip_prefix(':') {
+            Some(m) => (m, true),
+            None => return Err("expected a number of Gaussians, `auto` or `auto:MAX`".into()),
+        },
+        None => (s, false),
+    };
+    let what = if auto {
+        "the maximum number of Gaussians"
+    } else {
+        "the number of Gaussians"
+    };
+    match text.parse::<usize>() {
+        Ok(count) if (1..=max).contains(&count) => Ok(Components { count, auto }),
+        Ok(_) => Err(format!("{what} must be in 1..={max}")),
+        Err(_) => Err("expected a number of Gaussians, `auto` or `auto:MAX`".into()),
+    }
+}
+
+/// `--restarts`: 1..=[`MAX_RESTARTS`].
+pub fn parse_restarts(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_RESTARTS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "the number of starts must be in 1..={MAX_RESTARTS}"
+        )),
+    }
 }

@@ -6,6 +6,7 @@ mod choice;
 mod diff;
 mod experiment;
 mod gmm;
+mod gmm_robust;
 mod inspect;
 mod merge;
 mod png;
@@ -19,6 +20,7 @@ pub use experiment::{ExperimentArgs, JobArgs, experiment, figures, job, report};
 pub use gmm::{
     GmmDenseArgs, GmmEvalArgs, GmmFigsArgs, GmmFitArgs, gmm_dense, gmm_eval, gmm_figures, gmm_fit,
 };
+pub use gmm_robust::{GmmRobustnessArgs, gmm_robustness};
 pub use inspect::inspect;
 pub use merge::{MergeArgs, merge};
 pub use png::{PngArgs, png};
@@ -93,6 +95,9 @@ pub enum GmmCommand {
     Eval(GmmEvalArgs),
     /// Hua's Figs. 4, 5, 6, 7a and 8a from the fits of a folder of BFC files.
     Figures(GmmFigsArgs),
+    /// How much a fit's ΔE00 depends on its seed, with one start and with restarts, and the
+    /// number of Gaussians BIC chooses against where ΔE00 stops improving.
+    Robustness(GmmRobustnessArgs),
 }
 
 /// Run a parsed command.
@@ -117,6 +122,7 @@ pub fn run(command: Command) -> Result<(), Error> {
             GmmCommand::Dense(a) => gmm_dense(&a),
             GmmCommand::Eval(a) => gmm_eval(&a),
             GmmCommand::Figures(a) => gmm_figures(&a),
+            GmmCommand::Robustness(a) => gmm_robustness(&a),
         },
     }
 }

@@ -59,6 +59,34 @@ pub fn evaluate(
         seed,
         out,
         illuminants_dir,
+        restarts: crate::material::mixture::fit::DEFAULT_RESTARTS,
+    };
+    evaluate_with(&run, &fit)
+}
+
+/// [`evaluate`] with `restarts` seeded starts per fit instead of the default.
+pub fn evaluate_restarts(
+    dir: &Path,
+    components: &[usize],
+    method: FitMethod,
+    seed: u64,
+    out: &Path,
+    illuminants_dir: Option<&Path>,
+    restarts: usize,
+) -> Result<Summary, Error> {
+    let fit = |m: &BfcMatrix, k: usize| -> Result<BfcMatrix, String> {
+        let mut o = FitOptions::new(k, method, seed);
+        o.restarts = restarts;
+        Ok(fit_matrix(m, &o)?.to_matrix())
+    };
+    let run = Run {
+        dir,
+        components,
+        method,
+        seed,
+        out,
+        illuminants_dir,
+        restarts,
     };
     evaluate_with(&run, &fit)
 }
@@ -74,6 +102,8 @@ pub struct Run<'a> {
     pub out: &'a Path,
     /// A folder of illuminant tables; `None`: the CIE illuminants built into stokes.
     pub illuminants_dir: Option<&'a Path>,
+    /// Recorded in the outputs: the seeded starts per fit.
+    pub restarts: usize,
 }
 
 /// [`evaluate`] with the fit given as a function from a matrix and a number of components to
@@ -102,6 +132,7 @@ where
         cleaning: cleaning(&rows, run.components),
         seconds,
         outputs: Vec::new(),
+        restarts: run.restarts,
     };
     write_outputs(run, &rows, &mut summary).map_err(Error::runtime)?;
     Ok(summary)
@@ -359,6 +390,7 @@ mod tests {
             seed: 1,
             out: &out,
             illuminants_dir: None,
+            restarts: 1,
         };
         let s = evaluate_with(&run, &|m, _| Ok(m.clone())).unwrap();
         assert_eq!(s.materials, ["GOLFORA", "INCWHITE"]);
@@ -480,6 +512,7 @@ mod tests {
                 seed: 0,
                 out,
                 illuminants_dir: Some(&ill),
+                restarts: 1,
             };
             evaluate_with(&r, &|m, _| Ok(m.clone()))
         };
@@ -515,6 +548,7 @@ mod tests {
             seed: 0,
             out: &dir2.join("out"),
             illuminants_dir: Some(&ill),
+            restarts: 1,
         };
         let e = evaluate_with(&r, &|m, _| {
             let mut f = m.clone();

@@ -110,6 +110,8 @@ pub struct Summary {
     pub seconds: f64,
     /// The files written.
     pub outputs: Vec<PathBuf>,
+    /// Seeded k-means++ starts per fit.
+    pub restarts: usize,
 }
 
 /// Mean, median, 95th percentile and maximum (`None` for no data).

@@ -300,14 +300,21 @@ impl MixtureSampler {
         std::mem::size_of::<Self>() + self.cond.heap_bytes()
     }
 
-    /// α at the known wavelength: 1 where the mixture's conditional is empty.
+    /// q = α·p_tables + (1 − α)·p_mixture for the new wavelength `new` given `known`, from the
+    /// tables' density `table` and the mixture's conditional total ∫ρ_gmm (α is 1 where that
+    /// total is zero, the conditional being empty).
     #[inline]
-    fn share(&self, known: f32, axis: usize) -> f32 {
-        if self.cond.total(known as f64, axis) > 0.0 {
-            self.defensive
-        } else {
-            1.0
+    fn mix(&self, known: f32, new: f32, axis: usize, table: f32, total: f64) -> f32 {
+        if !(total > 0.0) {
+            return table;
         }
+        let (li, lo) = if axis == 0 {
+            (known, new)
+        } else {
+            (new, known)
+        };
+        let p = (self.cond.kernel(li as f64, lo as f64) / total) as f32;
+        self.defensive * table + (1.0 - self.defensive) * p
     }
 }
 
@@ -648,18 +655,21 @@ impl Bbrrdf for Reradiation {
             return self.sample_table(l, u, side);
         };
         let axis = side_axis(side);
-        let alpha = s.share(l, axis);
+        let alpha = s.defensive;
         if u[0] < alpha {
             let mut d = self.sample_table(l, u, side);
             if d.density > 0.0 {
-                let mix = s.cond.density(l as f64, d.lambda as f64, axis) as f32;
-                d.density = alpha * d.density + (1.0 - alpha) * mix;
+                let total = s.cond.total(l as f64, axis);
+                d.density = s.mix(l, d.lambda, axis, d.density, total);
             }
             return d;
         }
         let u0 = ((u[0] - alpha) / (1.0 - alpha)).min(ONE_BELOW);
-        match s.cond.sample(l as f64, axis, [u0 as f64, u[1] as f64]) {
-            Some(g) => {
+        match s
+            .cond
+            .sample_and_total(l as f64, axis, [u0 as f64, u[1] as f64])
+        {
+            (total, Some(g)) => {
                 let lambda = g.lambda as f32;
                 let table = self.table_density(l, lambda, side);
                 let kernel = match side {
@@ -668,12 +678,12 @@ impl Bbrrdf for Reradiation {
                 };
                 ShiftDraw {
                     lambda,
-                    // q = α·p_matrix + (1 − α)·p_gmm
-                    density: alpha * table + (1.0 - alpha) * g.density as f32,
+                    density: s.mix(l, lambda, axis, table, total),
                     kernel,
                 }
             }
-            None => self.sample_table(l, u, side), // unreachable: α = 1 there
+            // The mixture's conditional is empty here, so α is 1: the tables draw.
+            (_, None) => self.sample_table(l, u, side),
         }
     }
     fn shift_density(&self, l: f32, l_new: f32, side: PathSide) -> f32 {
@@ -682,13 +692,7 @@ impl Bbrrdf for Reradiation {
             None => table,
             Some(s) => {
                 let axis = side_axis(side);
-                let alpha = s.share(l, axis);
-                let mix = if alpha < 1.0 {
-                    s.cond.density(l as f64, l_new as f64, axis) as f32
-                } else {
-                    0.0
-                };
-                alpha * table + (1.0 - alpha) * mix
+                s.mix(l, l_new, axis, table, s.cond.total(l as f64, axis))
             }
         }
     }

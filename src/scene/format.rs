@@ -136,6 +136,8 @@ pub enum MaterialDesc {
         method: Option<crate::material::mixture::FitMethod>,
         #[serde(default)]
         seed: Option<u64>,
+        #[serde(default)]
+        restarts: Option<usize>,
     },
 }
 
@@ -148,7 +150,8 @@ pub enum ShiftSamplingDesc {
     Matrix {},
     /// A fitted Gaussian mixture (Hua 2022) used for sampling only, the matrix still evaluated:
     /// a fitted model `file`, or the material's own matrix fitted at load (cached) with
-    /// `components`, `method` and `seed`; `defensive` is the tables' share α of the draws.
+    /// `components`, `method`, `seed` and `restarts`; `defensive` is the tables' share α of the
+    /// draws.
     Mixture {
         #[serde(default)]
         file: Option<String>,
@@ -158,6 +161,8 @@ pub enum ShiftSamplingDesc {
         method: Option<crate::material::mixture::FitMethod>,
         #[serde(default)]
         seed: Option<u64>,
+        #[serde(default)]
+        restarts: Option<usize>,
         #[serde(default)]
         defensive: Option<f32>,
     },

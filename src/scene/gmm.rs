@@ -1,5 +1,6 @@
 //! The `reradiation-gmm` material's model: a fitted file, or a BFC matrix fitted at load time
-//! and cached by the SHA-256 of the matrix file and the fit settings.
+//! and cached by the SHA-256 of the matrix file and the fit settings (the number of starts
+//! included, so a new default number of starts fits again).
 //!
 //! The cache folder is `$STOKES_CACHE_DIR`, else `$XDG_CACHE_HOME/stokes`, else
 //! `$HOME/.cache/stokes`; its `gmm/` subfolder holds one model file per key. A cache entry that
@@ -9,6 +10,7 @@
 use crate::io::InputError;
 use crate::io::hash::sha256_hex;
 use crate::material::MixtureSampler;
+use crate::material::mixture::fit::MAX_RESTARTS;
 use crate::material::mixture::{FitMethod, FitOptions, GmmFile, fit_matrix};
 use crate::material::reradiation::BfcMatrix;
 use crate::scene::format::ShiftSamplingDesc;
@@ -25,6 +27,7 @@ pub struct GmmSource {
     pub components: Option<usize>,
     pub method: Option<FitMethod>,
     pub seed: Option<u64>,
+    pub restarts: Option<usize>,
 }
 
 /// The model of the material at JSON path `base` of scene `scene`, resolved from `dir`.
@@ -42,6 +45,7 @@ pub fn load(
                 (src.components.is_some(), "components"),
                 (src.method.is_some(), "method"),
                 (src.seed.is_some(), "seed"),
+                (src.restarts.is_some(), "restarts"),
             ] {
                 if set {
                     return Err(err(
@@ -74,7 +78,7 @@ pub fn load(
                         format!("malformed BFC file '{}': {m}", full.display()),
                     )
                 })?;
-            let opt = options(src.components, src.method, src.seed, err)?;
+            let opt = options(src.components, src.method, src.seed, src.restarts, err)?;
             fitted(&m, &bytes, bfc, &opt, warnings)
                 .map_err(|m| err("bfc", format!("cannot fit '{}': {m}", full.display())))
         }
@@ -89,12 +93,14 @@ pub fn load(
     }
 }
 
-/// The fit settings of a material's `components`, `method` and `seed` (defaults: 8, EM, 0);
+/// The fit settings of a material's `components`, `method`, `seed` and `restarts` (defaults: 8,
+/// EM, 0, the default starts);
 /// `err` places an error at one of those fields.
 fn options(
     components: Option<usize>,
     method: Option<FitMethod>,
     seed: Option<u64>,
+    restarts: Option<usize>,
     err: impl Fn(&str, String) -> InputError,
 ) -> Result<FitOptions, InputError> {
     let max = crate::material::mixture::conditional::MAX_COMPONENTS;
@@ -103,11 +109,18 @@ fn options(
     {
         return Err(err("components", format!("{k} is not in 1..={max}")));
     }
-    Ok(FitOptions::new(
+    let mut opt = FitOptions::new(
         components.unwrap_or(DEFAULT_COMPONENTS),
         method.unwrap_or_default(),
         seed.unwrap_or(0),
-    ))
+    );
+    if let Some(r) = restarts {
+        if !(1..=MAX_RESTARTS).contains(&r) {
+            return Err(err("restarts", format!("{r} is not in 1..={MAX_RESTARTS}")));
+        }
+        opt.restarts = r;
+    }
+    Ok(opt)
 }
 
 /// The tables' share α of the draws of a sampling-only mixture when a scene does not give one.
@@ -132,6 +145,7 @@ pub fn sampler(
         components,
         method,
         seed,
+        restarts,
         defensive,
     } = desc
     else {
@@ -153,6 +167,7 @@ pub fn sampler(
                 (components.is_some(), "components"),
                 (method.is_some(), "method"),
                 (seed.is_some(), "seed"),
+                (restarts.is_some(), "restarts"),
             ] {
                 if set {
                     return Err(err(
@@ -182,7 +197,7 @@ pub fn sampler(
             f
         }
         None => {
-            let opt = options(components, method, seed, err)?;
+            let opt = options(components, method, seed, restarts, err)?;
             fitted(m, bytes, name, &opt, warnings)
                 .map_err(|e| err("components", format!("cannot fit '{name}': {e}")))?
         }

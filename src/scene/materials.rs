@@ -135,6 +135,7 @@ pub(super) fn material(
             components,
             method,
             seed,
+            restarts,
         } => {
             let src = gmm::GmmSource {
                 file,
@@ -142,6 +143,7 @@ pub(super) fn material(
                 components,
                 method,
                 seed,
+                restarts,
             };
             let f = gmm::load(ctx.file, &ctx.dir, base, src, warnings)?;
             Material::ReradiationGmm(crate::material::ReradiationGmm::new(&f, domain))

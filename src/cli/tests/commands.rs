@@ -106,11 +106,16 @@ fn gmm_fit_parses_and_defaults_to_the_core_fit_settings() {
     };
     let core = FitOptions::new(8, FitMethod::default(), 0);
     assert_eq!((a.input, a.output), ("x.bfc".into(), "m.json".into()));
-    assert_eq!((a.components, a.method, a.seed), (8, FitMethod::Em, 0));
+    let fixed = |count| crate::cli::gmm::Components { count, auto: false };
+    assert_eq!(
+        (a.components, a.method, a.seed),
+        (fixed(8), FitMethod::Em, 0)
+    );
     assert_eq!(
         (a.max_iterations, a.tolerance),
         (core.max_iterations, core.tolerance)
     );
+    assert_eq!((a.restarts, a.scale), (core.restarts, core.scale_method));
     let GmmCommand::Fit(a) = gmm(&[
         "gmm",
         "fit",
@@ -130,8 +135,31 @@ fn gmm_fit_parses_and_defaults_to_the_core_fit_settings() {
     ]) else {
         panic!("not fit");
     };
-    assert_eq!((a.components, a.method, a.seed), (4, FitMethod::Bayes, 2));
+    assert_eq!(
+        (a.components, a.method, a.seed),
+        (fixed(4), FitMethod::Bayes, 2)
+    );
     assert_eq!((a.max_iterations, a.tolerance), (50, 1e-3));
+    for (arg, count, auto) in [("auto", 8, true), ("auto:12", 12, true), ("32", 32, false)] {
+        let GmmCommand::Fit(a) = gmm(&[
+            "gmm",
+            "fit",
+            "x.bfc",
+            "-o",
+            "m.json",
+            "--components",
+            arg,
+            "--restarts",
+            "3",
+            "--scale",
+            "error",
+        ]) else {
+            panic!("not fit");
+        };
+        assert_eq!(a.components, crate::cli::gmm::Components { count, auto });
+        assert_eq!(a.restarts, 3);
+        assert_eq!(a.scale, crate::material::mixture::ScaleMethod::Error);
+    }
     let GmmCommand::Dense(a) = gmm(&["gmm", "dense", "m.json", "--step", "5", "-o", "d.bfc"])
     else {
         panic!("not dense");

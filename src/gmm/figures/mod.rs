@@ -72,7 +72,9 @@ pub fn main_components(components: &[usize]) -> usize {
 
 /// The fit of the figures: the same as `gmm eval`'s.
 pub fn fit_model(m: &BfcMatrix, k: usize, run: &Run) -> Result<GmmFile, String> {
-    fit_matrix(m, &FitOptions::new(k, run.method, run.seed))
+    let mut opt = FitOptions::new(k, run.method, run.seed);
+    opt.restarts = run.restarts;
+    fit_matrix(m, &opt)
 }
 
 /// Fig. 4's material among the measurements: the file stem, any case, or a prefix of exactly

@@ -31,6 +31,7 @@ fn run<'a>(dir: &'a Path, out: &'a Path) -> Run<'a> {
         seed: 0,
         out,
         illuminants_dir: None,
+        restarts: 1,
     }
 }
 

@@ -240,8 +240,29 @@ impl ConditionalMixture {
     /// known, draw λi), rounded to f32 as the renderer carries it, with the density and kernel
     /// of that rounded wavelength.
     pub fn sample(&self, known: f64, axis: usize, u: [f64; 2]) -> Option<ConditionalDraw> {
+        self.sample_and_total(known, axis, u).1
+    }
+
+    /// [`ConditionalMixture::sample`] and [`ConditionalMixture::total`] from one slice: the
+    /// total (zero where the conditional is empty) and the draw.
+    pub fn sample_and_total(
+        &self,
+        known: f64,
+        axis: usize,
+        u: [f64; 2],
+    ) -> (f64, Option<ConditionalDraw>) {
         let s = self.slice(known, axis);
-        let lambda = self.draw(&s, u)? as f32 as f64;
+        (s.total, self.draw_from(&s, known, axis, u))
+    }
+
+    fn draw_from(
+        &self,
+        s: &Slice,
+        known: f64,
+        axis: usize,
+        u: [f64; 2],
+    ) -> Option<ConditionalDraw> {
+        let lambda = self.draw(s, u)? as f32 as f64;
         let (li, lo) = if axis == 0 {
             (known, lambda)
         } else {

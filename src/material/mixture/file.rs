@@ -55,6 +55,18 @@ pub struct FitInfo {
     /// Mean log-likelihood per unit weight (EM) or lower bound (Bayes) at the end.
     pub log_likelihood: f64,
     pub converged: bool,
+    /// Which of the `options.restarts` starts was kept (0: the one from `options.seed`; omitted
+    /// when 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub restart: usize,
+    /// With `options.auto_components` and EM: the BIC of K = 1, 2, … (`select`), the smallest
+    /// chosen; omitted otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bic: Vec<f64>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// A BFC grid: emission rows from `em_lo`, excitation columns from `ex_lo`, one step.
@@ -374,6 +386,38 @@ mod tests {
     fn round_trips_through_json() {
         let f = model();
         assert_eq!(GmmFile::parse(&f.to_json()).unwrap(), f);
+    }
+
+    /// The fields added with restarts, automatic K and the error scale: a file without them
+    /// (as written before they existed) reads as one start, the integral ratio and a fixed K;
+    /// with them it round-trips; a bad value names its field.
+    #[test]
+    fn files_without_the_newer_options_read_as_before() {
+        let mut f = model();
+        f.fit.options.restarts = 5;
+        f.fit.options.scale_method = crate::material::mixture::ScaleMethod::Error;
+        f.fit.options.auto_components = true;
+        f.fit.restart = 3;
+        f.fit.bic = vec![10.0, 9.0, 9.5];
+        assert_eq!(GmmFile::parse(&f.to_json()).unwrap(), f);
+        let mut v: serde_json::Value = serde_json::from_str(&f.to_json()).unwrap();
+        for k in ["restarts", "scale_method", "auto_components"] {
+            v["fit"]["options"].as_object_mut().unwrap().remove(k);
+        }
+        for k in ["restart", "bic"] {
+            v["fit"].as_object_mut().unwrap().remove(k);
+        }
+        let old = GmmFile::parse(&v.to_string()).unwrap();
+        let o = old.fit.options;
+        assert_eq!((o.restarts, o.auto_components), (1, false));
+        assert_eq!(
+            o.scale_method,
+            crate::material::mixture::ScaleMethod::Integral
+        );
+        assert_eq!((old.fit.restart, old.fit.bic.len()), (0, 0));
+        v["fit"]["options"]["scale_method"] = "l1".into();
+        let e = GmmFile::parse(&v.to_string()).unwrap_err();
+        assert!(e.contains("fit.options.scale_method"), "{e}");
     }
 
     /// Every malformed model names its field.

@@ -7,7 +7,9 @@
 //!
 //! - [`em`]: weighted EM with k-means++ initialisation (Hua §5.2);
 //! - [`bayes`]: weighted variational Bayesian inference (Hua §5.2);
-//! - [`fit`]: from a cleaned BFC matrix to a fitted, scaled model (§5.1, §5.3);
+//! - [`fit`]: from a cleaned BFC matrix to a fitted, scaled model, the best of several seeded
+//!   starts (§5.1, §5.3);
+//! - [`select`]: the number of components by BIC (§5.2);
 //! - [`file`]: the JSON file format of a fitted model;
 //! - [`conditional`]: the truncated conditional mixtures λo | λi and λi | λo (§6).
 
@@ -16,10 +18,11 @@ pub mod conditional;
 pub mod em;
 pub mod file;
 pub mod fit;
+pub mod select;
 
 pub use conditional::ConditionalMixture;
 pub use file::GmmFile;
-pub use fit::{FitMethod, FitOptions, fit_matrix};
+pub use fit::{FitMethod, FitOptions, ScaleMethod, fit_matrix};
 
 use serde::{Deserialize, Serialize};
 
