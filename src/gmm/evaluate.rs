@@ -455,6 +455,7 @@ mod tests {
             seed: 0,
             out: &out,
             illuminants_dir: None,
+            restarts: 1,
         };
         // A fit that differs by light: the cleaned matrix, scaled per number of components.
         evaluate_with(&run, &|m, k| {
