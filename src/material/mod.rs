@@ -9,6 +9,7 @@
 //! then the new wavelength) and returns the wavelength, its pdf and the spectral value together;
 //! [`Material::pdf`] and [`Material::eval`] match it.
 
+pub mod bfc;
 pub mod binop;
 pub mod fluorescent;
 pub mod lambert;

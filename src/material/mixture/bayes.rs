@@ -556,7 +556,7 @@ fn digamma(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::reradiation::BfcMatrix;
+    use crate::material::bfc::BfcMatrix;
 
     use super::super::tests::known_mixture;
 

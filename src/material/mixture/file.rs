@@ -7,9 +7,7 @@
 //! ∬ρ = Σ D·Δλ over the mixture's mass on the measured support above the diagonal (eq. 5).
 
 use super::{Component, ConditionalMixture, FitOptions, conditional::MAX_COMPONENTS};
-use crate::material::reradiation::{
-    BfcMatrix, MAX_BFC_ALBEDO, MAX_BFC_ENTRY, MIN_BFC_STEP, lerp_on_grid,
-};
+use crate::material::bfc::{BfcMatrix, MAX_BFC_ALBEDO, MAX_BFC_ENTRY, MIN_BFC_STEP, lerp_on_grid};
 use crate::spectrum::Domain;
 use serde::{Deserialize, Serialize};
 

@@ -3,7 +3,7 @@
 use super::conditional::MAX_COMPONENTS;
 use super::file::{FORMAT, FitInfo, Grid, Source};
 use super::{ConditionalMixture, FitReport, GmmFile, WeightedPoints, bayes, em, select};
-use crate::material::reradiation::BfcMatrix;
+use crate::material::bfc::BfcMatrix;
 use rayon::prelude::*;
 
 named_enum! {
