@@ -10,7 +10,7 @@
 use super::super::canvas::{Figure, Raster, de, write_figure};
 use super::super::evaluate::Run;
 use super::super::inputs::Measurement;
-use super::{fit_model, method_title, series_colour};
+use super::{draw_component_curves, fit_model, method_title};
 use crate::Error;
 use crate::material::mixture::{ConditionalMixture, GmmFile};
 use crate::material::reradiation::BfcMatrix;
@@ -144,22 +144,9 @@ impl Figure for Fig4 {
             .map_err(de)?
             .label("matrix (cleaned), normalised column")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
-        for (j, (k, p)) in self.curves.mixtures.iter().enumerate() {
-            let colour = series_colour(j);
-            c.draw_series(LineSeries::new(p.iter().copied(), colour.stroke_width(2)))
-                .map_err(de)?
-                .label(format!("{k} Gaussians, truncated conditional"))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                });
-        }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(de)?;
+        draw_component_curves(&mut c, &self.curves.mixtures, |k| {
+            format!("{k} Gaussians, truncated conditional")
+        })?;
         Ok(Vec::new())
     }
 }

@@ -5,7 +5,7 @@ use super::super::canvas::{Figure, Raster, de, write_figure};
 use super::super::colour::LightKind;
 use super::super::evaluate::Run;
 use super::super::summary::{Row, per_light};
-use super::{method_title, series_colour};
+use super::{draw_component_curves, method_title};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -77,22 +77,7 @@ impl Figure for Fig7a {
             .axis_desc_style(("sans-serif", 14))
             .draw()
             .map_err(de)?;
-        for (j, (k, p)) in self.curves.iter().enumerate() {
-            let colour = series_colour(j);
-            c.draw_series(LineSeries::new(p.iter().copied(), colour.stroke_width(2)))
-                .map_err(de)?
-                .label(format!("{k} Gaussians"))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                });
-        }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(de)?;
+        draw_component_curves(&mut c, &self.curves, |k| format!("{k} Gaussians"))?;
         Ok(Vec::new())
     }
 }

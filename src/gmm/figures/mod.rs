@@ -196,3 +196,39 @@ pub fn series_colour(j: usize) -> plotters::style::RGBColor {
 
 #[cfg(test)]
 mod tests;
+
+/// The curves of the line figures (Figs. 4 and 7a): one line per number of components, coloured
+/// by [`series_colour`] in order and labelled by `label`, then the legend box of every series
+/// drawn on `c` so far.
+pub fn draw_component_curves<'a, DB: plotters::prelude::DrawingBackend + 'a>(
+    c: &mut plotters::prelude::ChartContext<
+        'a,
+        DB,
+        plotters::prelude::Cartesian2d<
+            plotters::coord::types::RangedCoordf64,
+            plotters::coord::types::RangedCoordf64,
+        >,
+    >,
+    curves: &[(usize, Vec<(f64, f64)>)],
+    label: impl Fn(usize) -> String,
+) -> Result<(), String> {
+    use super::canvas::de;
+    use plotters::prelude::*;
+    for (j, (k, p)) in curves.iter().enumerate() {
+        let colour = series_colour(j);
+        c.draw_series(LineSeries::new(p.iter().copied(), colour.stroke_width(2)))
+            .map_err(de)?
+            .label(label(*k))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
+    }
+    c.configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(de)?;
+    Ok(())
+}
