@@ -207,3 +207,65 @@ fn every_instruction_set_renders_the_same_image() {
         }
     }
 }
+
+/// A render whose cancel flag is set stops: set from the pass callback after the second pass
+/// (no third pass starts), set before the render (no pass runs), or set from another thread in
+/// the middle of a long render. Each returns the `CANCELLED` error; an unset flag changes
+/// nothing.
+#[test]
+fn cancel_flag_stops_a_render() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use stokes::integrator::CANCELLED;
+    let scene = small("scenes/cornell-box.json");
+    let opts = IntegratorOptions::default();
+    let flag = Arc::new(AtomicBool::new(false));
+    let st = RenderSettings {
+        spp: 1000,
+        threads: Some(2),
+        cancel: Some(flag.clone()),
+        ..Default::default()
+    };
+    let mut passes = 0;
+    let f = flag.clone();
+    let mut cb = |_: &stokes::film::Film, _: &stokes::integrator::Stats, _: f64| {
+        passes += 1;
+        if passes == 2 {
+            f.store(true, Ordering::Relaxed);
+        }
+        true
+    };
+    let r = render(&scene, IntegratorKind::PtMono, &opts, &st, Some(&mut cb));
+    assert_eq!(r.err().as_deref(), Some(CANCELLED));
+    assert_eq!(passes, 2);
+    // already set: nothing renders
+    let r = render(&scene, IntegratorKind::PtHero, &opts, &st, None);
+    assert_eq!(r.err().as_deref(), Some(CANCELLED));
+    // set from another thread during a render of a million passes
+    flag.store(false, Ordering::Relaxed);
+    let long = RenderSettings {
+        spp: 1_000_000,
+        ..st.clone()
+    };
+    let f = flag.clone();
+    let stopper = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        f.store(true, Ordering::Relaxed);
+    });
+    let r = render(&scene, IntegratorKind::BdptForward, &opts, &long, None);
+    stopper.join().unwrap();
+    assert_eq!(r.err().as_deref(), Some(CANCELLED));
+    // a flag that stays unset: the same image as without one
+    let plain = RenderSettings {
+        spp: 3,
+        seed: 5,
+        ..Default::default()
+    };
+    let with_flag = RenderSettings {
+        cancel: Some(Arc::new(AtomicBool::new(false))),
+        ..plain.clone()
+    };
+    let a = render(&scene, IntegratorKind::PtMono, &opts, &plain, None).unwrap();
+    let b = render(&scene, IntegratorKind::PtMono, &opts, &with_flag, None).unwrap();
+    assert_eq!(a.film.xyz(), b.film.xyz());
+}

@@ -15,6 +15,7 @@ fn settings(from: u32, spp: u32) -> RenderSettings {
         time_limit: None,
         progress: false,
         spectral: None,
+        cancel: None,
     }
 }
 

@@ -24,7 +24,7 @@ pub use gmm_robust::{GmmRobustnessArgs, gmm_robustness};
 pub use inspect::inspect;
 pub use merge::{MergeArgs, merge};
 pub use png::{PngArgs, png};
-pub use render::{RenderArgs, RenderOutputs, render, render_cmd_validate, stats_json};
+pub use render::{RenderArgs, RenderOutputs, render, render_cmd_validate};
 
 use crate::Error;
 use crate::io::text::show_path;

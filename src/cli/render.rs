@@ -389,6 +389,7 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         time_limit: a.time_limit,
         progress: true,
         spectral: a.spectral,
+        cancel: None,
     };
     let opts = a.options();
     let out = crate::integrator::render(&scene, a.integrator, &opts, &settings, None)
@@ -432,7 +433,7 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         }
     }
     if let Some(p) = &outputs.stats {
-        let json = stats_json(a.integrator, &opts, &out);
+        let json = out.stats_json(a.integrator, &opts);
         let text = serde_json::to_string_pretty(&json).unwrap();
         crate::io::output::write_bytes(p, text.as_bytes()).map_err(Error::runtime)?;
     }
@@ -445,31 +446,4 @@ pub fn render(a: &RenderArgs) -> Result<(), Error> {
         out.stats.nan_inf_rejected
     );
     Ok(())
-}
-
-/// The `--stats` JSON document.
-pub fn stats_json(
-    kind: IntegratorKind,
-    opts: &IntegratorOptions,
-    out: &crate::integrator::RenderOutput,
-) -> serde_json::Value {
-    let s = &out.stats;
-    serde_json::json!({
-        "integrator": kind.name(),
-        "options": opts,
-        // the instruction set of the ray kernels (the scene's BVH is built with the process's)
-        "isa": crate::geometry::Isa::active().name(),
-        "spp": out.film.spp,
-        "width": out.film.width,
-        "height": out.film.height,
-        "seconds": out.seconds,
-        "samples_per_second": s.paths as f64 / out.seconds.max(1e-9),
-        "rays": s.rays,
-        "rays_per_second": s.rays as f64 / out.seconds.max(1e-9),
-        "nan_inf_rejected": s.nan_inf_rejected,
-        "dropped_strategy_pdfs": s.dropped_strategy_pdfs,
-        "paths": s.paths,
-        "contributing_paths": s.contributing_paths,
-        "contributing_paths_by_segments": s.contributing_by_length,
-    })
 }

@@ -246,7 +246,13 @@ impl Config {
         // (a UTF-8 byte-order mark, which some editors write, is dropped)
         let text = crate::io::input::read_text(path, crate::io::input::CONFIG)
             .map_err(|e| err(path, "", format!("cannot read the config: {e}")))?;
-        let c: Config = from_json_str(path, &text)?;
+        Self::from_text(path, &text)
+    }
+
+    /// Parse and validate a config from JSON text; `path` names it in errors and resolves its
+    /// relative paths (the Python API's configs given as a dict).
+    pub fn from_text(path: &Path, text: &str) -> Result<Config, InputError> {
+        let c: Config = from_json_str(path, text)?;
         c.validate(path)?;
         Ok(c)
     }

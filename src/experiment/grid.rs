@@ -98,6 +98,7 @@ pub(super) fn render_cell(
         },
         progress: false,
         spectral: None,
+        cancel: s.cancel.clone(),
     };
     let out = render(&scene, v.integrator, &v.options, &settings, None)
         .map_err(|e| Error::runtime(format!("grid: {e}")))?;

@@ -30,4 +30,5 @@ mod variants;
 pub use config::Config;
 pub use metrics::{ErrorMetrics, compare};
 pub use record::RunInfo;
-pub use runner::run_experiment;
+pub use runner::{run_experiment, run_experiment_from};
+pub use setup::Source;

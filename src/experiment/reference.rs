@@ -84,6 +84,7 @@ fn cached_or_rendered(s: &Setup, r: &Reference, bar: &ProgressBar) -> Result<Vec
         time_limit: None,
         progress: false,
         spectral: None,
+        cancel: s.cancel.clone(),
     };
     let b = bar.clone();
     let mut cb = move |_: &crate::film::Film, _: &crate::integrator::Stats, _: f64| {
@@ -135,6 +136,7 @@ pub fn render_shard(
         time_limit: None,
         progress: true,
         spectral: None,
+        cancel: s.cancel.clone(),
     };
     let out = render(&s.scene, kind, &r.options, &settings, None)
         .map_err(|e| Error::runtime(format!("reference: {e}")))?;

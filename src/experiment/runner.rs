@@ -9,7 +9,7 @@ use super::record::{
     new_run_dir, summarize, timestamp, write_text,
 };
 use super::regions::{self, Region};
-use super::setup::Setup;
+use super::setup::{Setup, Source};
 use super::sweep::{self, Point, SweepRecord};
 use super::variants::Runs;
 use super::{figures, grid, progress, reference};
@@ -25,7 +25,17 @@ pub fn run_experiment(
     root: Option<&Path>,
     quick: bool,
 ) -> Result<PathBuf, Error> {
-    let (setup, points) = checked_setup(config_path, root, quick)?;
+    run_experiment_from(&Source::file(config_path), root, quick)
+}
+
+/// [`run_experiment`] of a config file or of a config's text ([`Source`]).
+pub fn run_experiment_from(
+    src: &Source,
+    root: Option<&Path>,
+    quick: bool,
+) -> Result<PathBuf, Error> {
+    let config_path = src.path;
+    let (setup, points) = checked_setup_from(src, root, quick)?;
     setup.check_writable()?;
     let runs = points.len().max(1) as u64;
     let bar = progress::bar(progress::total(&setup.cfg, &setup.modes) * runs);
@@ -68,7 +78,15 @@ pub(super) fn checked_setup(
     root: Option<&Path>,
     quick: bool,
 ) -> Result<(Setup, Vec<Point>), Error> {
-    let setup = Setup::load(config_path, root, quick)?;
+    checked_setup_from(&Source::file(config_path), root, quick)
+}
+
+fn checked_setup_from(
+    src: &Source,
+    root: Option<&Path>,
+    quick: bool,
+) -> Result<(Setup, Vec<Point>), Error> {
+    let setup = Setup::load_from(src, root, quick)?;
     setup.check_integrators()?;
     let points = sweep::points(&setup)?;
     grid::check_cells(&setup)?;

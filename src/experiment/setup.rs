@@ -5,9 +5,29 @@
 use super::config::{BudgetMode, Config, Crop, Scanline};
 use super::record::ModeBudgets;
 use crate::error::Error;
-use crate::integrator::{IntegratorKind, IntegratorOptions, with_threads};
+use crate::integrator::{Cancel, IntegratorKind, IntegratorOptions, with_threads};
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
+
+/// Where a run's config comes from: a file, or JSON text given in place of the file at `path`
+/// (which names it in errors and resolves its relative paths); and the flag that stops it.
+#[derive(Clone, Debug)]
+pub struct Source<'a> {
+    pub path: &'a Path,
+    pub text: Option<&'a str>,
+    pub cancel: Option<Cancel>,
+}
+
+impl<'a> Source<'a> {
+    /// The config file at `path`.
+    pub fn file(path: &'a Path) -> Self {
+        Source {
+            path,
+            text: None,
+            cancel: None,
+        }
+    }
+}
 
 /// A loaded experiment, ready to run.
 pub struct Setup {
@@ -34,13 +54,24 @@ pub struct Setup {
     pub scanline: Option<Scanline>,
     /// Budgets per mode, in snapshot order.
     pub modes: Vec<ModeBudgets>,
+    /// Stops every render of the run when set (the Python API's Ctrl-C).
+    pub cancel: Option<Cancel>,
 }
 
 impl Setup {
     /// Load and check the config in `config_path` and its scene; `root` defaults to `results`
     /// (`results/quick` with `quick`).
     pub fn load(config_path: &Path, root: Option<&Path>, quick: bool) -> Result<Setup, Error> {
-        let mut cfg = Config::load(config_path)?;
+        Self::load_from(&Source::file(config_path), root, quick)
+    }
+
+    /// [`Setup::load`] of a config file or of a config's text ([`Source`]).
+    pub fn load_from(src: &Source, root: Option<&Path>, quick: bool) -> Result<Setup, Error> {
+        let config_path = src.path;
+        let mut cfg = match src.text {
+            Some(t) => Config::from_text(config_path, t)?,
+            None => Config::load(config_path)?,
+        };
         if quick {
             cfg.quicken();
         }
@@ -87,6 +118,7 @@ impl Setup {
             height: h,
             crop: None,
             scanline: None,
+            cancel: src.cancel.clone(),
         };
         s.crop = s.scaled_crop()?;
         s.scanline = s.scaled_scanline()?;
@@ -227,6 +259,7 @@ impl Setup {
             crop: self.crop,
             scanline: self.scanline,
             modes: self.modes.clone(),
+            cancel: self.cancel.clone(),
         }
     }
 

@@ -86,6 +86,7 @@ impl Runs<'_> {
             time_limit: None,
             progress: false,
             spectral: cfg.spectral,
+            cancel: self.setup.cancel.clone(),
         };
         let mut snap = Snapshots {
             runs: self,

@@ -11,5 +11,6 @@ pub mod evaluate;
 pub mod figures;
 pub mod fit;
 pub mod inputs;
+pub mod options;
 pub mod robust;
 pub mod summary;

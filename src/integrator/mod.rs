@@ -8,7 +8,9 @@ pub use bdpt::allbins;
 pub mod pt;
 pub mod render;
 
-pub use render::{RenderOutput, RenderSettings, check, render, shard_info, with_threads};
+pub use render::{
+    CANCELLED, Cancel, RenderOutput, RenderSettings, check, render, shard_info, with_threads,
+};
 
 use crate::film::spectral::SpectralBins;
 use crate::material::WavelengthSampling;

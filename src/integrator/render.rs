@@ -28,6 +28,19 @@ pub struct RenderSettings {
     pub progress: bool,
     /// Also make a spectral image of this many bins over the camera's range (`--spectral`).
     pub spectral: Option<usize>,
+    /// Set from another thread to stop the render: rows not yet started in the current pass
+    /// are skipped and [`render`] returns [`CANCELLED`] (the Python API's Ctrl-C).
+    pub cancel: Option<Cancel>,
+}
+
+/// A flag that stops a render when set ([`RenderSettings::cancel`]).
+pub type Cancel = std::sync::Arc<std::sync::atomic::AtomicBool>;
+
+/// The error of a render stopped through [`RenderSettings::cancel`].
+pub const CANCELLED: &str = "the render was cancelled";
+
+fn cancelled(c: Option<&Cancel>) -> bool {
+    c.is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
 }
 
 impl Default for RenderSettings {
@@ -40,6 +53,7 @@ impl Default for RenderSettings {
             time_limit: None,
             progress: false,
             spectral: None,
+            cancel: None,
         }
     }
 }
@@ -49,6 +63,32 @@ pub struct RenderOutput {
     pub stats: Stats,
     /// Wall-clock seconds of rendering (scene loading excluded).
     pub seconds: f64,
+}
+
+impl RenderOutput {
+    /// The render's statistics as JSON: the CLI's `--stats` document and the Python API's
+    /// `Render.stats`.
+    pub fn stats_json(&self, kind: IntegratorKind, opts: &IntegratorOptions) -> serde_json::Value {
+        let (out, s) = (self, &self.stats);
+        serde_json::json!({
+            "integrator": kind.name(),
+            "options": opts,
+            // the instruction set of the ray kernels (the scene's BVH is built with the process's)
+            "isa": crate::geometry::Isa::active().name(),
+            "spp": out.film.spp,
+            "width": out.film.width,
+            "height": out.film.height,
+            "seconds": out.seconds,
+            "samples_per_second": s.paths as f64 / out.seconds.max(1e-9),
+            "rays": s.rays,
+            "rays_per_second": s.rays as f64 / out.seconds.max(1e-9),
+            "nan_inf_rejected": s.nan_inf_rejected,
+            "dropped_strategy_pdfs": s.dropped_strategy_pdfs,
+            "paths": s.paths,
+            "contributing_paths": s.contributing_paths,
+            "contributing_paths_by_segments": s.contributing_by_length,
+        })
+    }
 }
 
 /// Called after each pass: (film so far, stats so far, seconds so far). Return `false` to stop.
@@ -250,6 +290,7 @@ fn pass_rows<I: Integrator>(
     (sum, spectral): (&mut [[f64; 3]], Option<&mut SpectralFilm>),
     rows: &mut [RowResult],
     scratches: &Scratches<I::Scratch>,
+    cancel: Option<&Cancel>,
 ) {
     let (w, h) = (scene.camera.width, scene.camera.height);
     // The spectral image's rows beside the film's (empty rows without one).
@@ -267,6 +308,11 @@ fn pass_rows<I: Integrator>(
         .enumerate()
         .with_max_len(1)
         .for_each(|(y, ((film_row, r), spectral_row))| {
+            if cancelled(cancel) {
+                // the render is abandoned: this pass's film is never read
+                r.clear();
+                return;
+            }
             let mut scratch = scratches.get();
             let scratch = &mut *scratch;
             let y = y as u32;
@@ -396,7 +442,11 @@ pub fn run<I: Integrator>(
                 u32::MAX
             )
         })?;
+    let cancel = settings.cancel.as_ref();
     for s in settings.first_sample..end {
+        if cancelled(cancel) {
+            break;
+        }
         let Film {
             sum,
             splat,
@@ -409,7 +459,15 @@ pub fn run<I: Integrator>(
         rayon::join(
             || {
                 let film = (sum.as_mut_slice(), spectral_film);
-                pass_rows(scene, integrator, (seed, s), film, &mut rows, &scratches)
+                pass_rows(
+                    scene,
+                    integrator,
+                    (seed, s),
+                    film,
+                    &mut rows,
+                    &scratches,
+                    cancel,
+                )
             },
             || {
                 if pending {
@@ -448,6 +506,9 @@ pub fn run<I: Integrator>(
     }
     if let Some(b) = bar {
         b.finish_and_clear();
+    }
+    if cancelled(cancel) {
+        return Err(CANCELLED.into());
     }
     Ok(RenderOutput {
         film,
