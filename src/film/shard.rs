@@ -136,7 +136,7 @@ fn write_sums(
 pub const ATTRIBUTE: &str = "stokes.film";
 
 /// The header attributes of a shard: [`ATTRIBUTE`] as JSON.
-pub(crate) fn attributes(i: &ShardInfo) -> Vec<(String, String)> {
+pub fn attributes(i: &ShardInfo) -> Vec<(String, String)> {
     let options: serde_json::Value =
         serde_json::from_str(&i.options).unwrap_or(serde_json::Value::String(i.options.clone()));
     let v = serde_json::json!({
