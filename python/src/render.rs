@@ -161,7 +161,7 @@ impl Scene {
         py: Python<'_>,
         integrator: &str,
         spp: i64,
-        seed: u64,
+        seed: i128,
         threads: Option<i64>,
         max_depth: i64,
         time_limit: Option<f64>,
@@ -171,6 +171,8 @@ impl Scene {
     ) -> PyResult<Render> {
         let kind = parse_integrator(integrator)?;
         let spp = in_range("spp", spp, 1, MAX_SPP as i64)? as u32;
+        let seed = u64::try_from(seed)
+            .map_err(|_| option_error("seed", format!("must be 0–{}, got {seed}", u64::MAX)))?;
         let threads = threads
             .map(|t| in_range("threads", t, 1, MAX_THREADS as i64))
             .transpose()?

@@ -114,6 +114,8 @@ def test_bad_options_raise_input_error_naming_the_option():
         (dict(spp=0), "spp"),
         (dict(threads=0), "threads"),
         (dict(time_limit=-1.0), "time_limit"),
+        (dict(seed=-1), "seed"),
+        (dict(max_depth=0), "max_depth"),
         (dict(mis="powerful"), "mis"),
         (dict(lanes="four"), "lanes"),
         (dict(integrator="bdpt-allbins", spectral=8), "spectral"),
