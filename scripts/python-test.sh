@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The Python package's tests, as a new user runs them: a fresh virtual environment
-# (target/python-venv, made again on every run), `pip install ./python pytest` (maturin builds
-# the extension from the workspace with cargo), then pytest on python/tests. The tests compare
+# (target/python-venv, made again on every run), `pip install ./python pytest matplotlib`
+# (maturin builds the extension from the workspace with cargo; matplotlib for the test that runs
+# the examples), then pytest on python/tests. The tests compare
 # Python renders with the CLI's, so the CLI is built first (`cargo build --release`; nothing to
 # do after `cargo test --release`). Prints the time of each step.
 #
@@ -37,5 +38,6 @@ step() {
 step "cargo build --release (the CLI the tests compare with)" cargo build --release --quiet
 rm -rf "$venv"
 step "fresh virtual environment" python3 -m venv "$venv"
-step "pip install ./python pytest" "$venv/bin/pip" install --quiet --disable-pip-version-check ./python pytest
-step "pytest python/tests" "$venv/bin/pytest" -q python/tests "$@"
+# matplotlib for the test that runs the examples (only the examples use it)
+step "pip install ./python pytest matplotlib" "$venv/bin/pip" install --quiet --disable-pip-version-check ./python pytest matplotlib
+STOKES_REQUIRE_MATPLOTLIB=1 step "pytest python/tests" "$venv/bin/pytest" -q python/tests "$@"

@@ -197,8 +197,18 @@ impl Scene {
                 .map_err(|m| option_error("spectral", m))?;
         }
         let opts = integrator_options(max_depth, options)?;
-        opts.validate_for(kind)
-            .map_err(|m| input_error(&format!("option {m}"), None, None, &m))?;
+        opts.validate_for(kind).map_err(|m| {
+            // the message starts with the option's name
+            let name = m.split_whitespace().next().unwrap_or("");
+            let known = serde_json::to_value(&opts)
+                .ok()
+                .is_some_and(|v| v.get(name).is_some() || name == "reset_choice");
+            if known {
+                input_error(&format!("option {m}"), None, Some(name), &m)
+            } else {
+                input_error(&format!("option {m}"), None, None, &m)
+            }
+        })?;
         let (callback, bar) = match &progress {
             None => (None, false),
             Some(p) if p.is_callable() => (Some(p.clone().unbind()), false),
@@ -287,12 +297,6 @@ fn integrator_options(
     if let Some(d) = options {
         for (k, val) in d.iter() {
             let key: String = k.extract()?;
-            if key == "strategy_images" {
-                return Err(option_error(
-                    &key,
-                    "strategy images are files: use `stokes render --strategy-images DIR`",
-                ));
-            }
             let text = json::dumps(&val)
                 .map_err(|e| option_error(&key, format!("the value is not JSON: {e}")))?;
             let j: serde_json::Value = serde_json::from_str(&text)
@@ -318,10 +322,7 @@ fn integrator_options(
 /// The integrator options and their defaults, as ``Scene.render`` takes them by keyword.
 #[pyfunction]
 pub fn default_options<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-    let mut v = serde_json::to_value(IntegratorOptions::default()).expect("options serialise");
-    if let Some(m) = v.as_object_mut() {
-        m.remove("strategy_images");
-    }
+    let v = serde_json::to_value(IntegratorOptions::default()).expect("options serialise");
     json::to_py(py, &v)
 }
 
@@ -476,6 +477,19 @@ impl Render {
         json::to_py(py, &self.stats)
     }
 
+    /// With ``strategy_images=True`` (the BDPT integrators): each strategy's weighted
+    /// contribution as a dict ``{"s<i>_t<j>": (H, W, 3) float32 linear sRGB}`` (the CLI's
+    /// ``--strategy-images``; they sum to ``rgb``); an empty dict otherwise.
+    #[getter]
+    fn strategy_images<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let (w, h) = (self.film.width as usize, self.film.height as usize);
+        for (i, name) in self.film.aux_names.iter().enumerate() {
+            d.set_item(name, image(py, (h, w, 3), vec3s(&self.film.aux_rgb(i))))?;
+        }
+        Ok(d)
+    }
+
     /// Samples per pixel rendered (fewer than asked for when a time limit or the progress
     /// callback stopped the render).
     #[getter]
@@ -498,10 +512,7 @@ impl Render {
     /// The integrator options the render used (all of them, defaults included).
     #[getter]
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut v = serde_json::to_value(&self.opts).expect("options serialise");
-        if let Some(m) = v.as_object_mut() {
-            m.remove("strategy_images");
-        }
+        let v = serde_json::to_value(&self.opts).expect("options serialise");
         json::to_py(py, &v)
     }
 

@@ -70,6 +70,9 @@ class Render:
     def wavelength_edges(self) -> Optional[_F64]:
         """(N + 1,) bin edges in nm, or None."""
     @property
+    def strategy_images(self) -> Dict[str, _F32]:
+        """With strategy_images=True (BDPT): each strategy's (H, W, 3) image by name."""
+    @property
     def stats(self) -> Dict[str, Any]: ...
     @property
     def spp(self) -> int: ...

@@ -116,6 +116,9 @@ def test_bad_options_raise_input_error_naming_the_option():
         (dict(time_limit=-1.0), "time_limit"),
         (dict(seed=-1), "seed"),
         (dict(max_depth=0), "max_depth"),
+        (dict(max_depth=5000), "max_depth"),
+        (dict(lanes=17), "lanes"),
+        (dict(reset_choice="random"), "reset_choice"),
         (dict(mis="powerful"), "mis"),
         (dict(lanes="four"), "lanes"),
         (dict(integrator="bdpt-allbins", spectral=8), "spectral"),
@@ -216,3 +219,19 @@ def test_save_png_and_spectral_exr(tmp_path):
     assert (tmp_path / "a.spectral.exr").stat().st_size > 0
     with pytest.raises(stokes.InputError):
         r.save_exr(tmp_path / "a.png")
+
+
+def test_strategy_images_sum_to_the_image_and_match_the_cli(cli, tmp_path):
+    scene = str(SCENES / "cornell-box.json")
+    r = stokes.load_scene(scene).render("bdpt-forward", spp=1, seed=2, max_depth=4,
+                                        strategy_images=True)
+    layers = r.strategy_images
+    assert {"s1_t1", "s2_t1", "s3_t0"} <= set(layers)
+    total = sum(layers.values())
+    assert np.allclose(total, r.rgb, rtol=1e-4, atol=1e-6)
+    run_cli(cli, "render", scene, "--integrator", "bdpt-forward", "--spp", "1", "--seed", "2",
+            "--max-depth", "4", "-o", str(tmp_path / "a.exr"), "--strategy-images",
+            str(tmp_path / "layers"))
+    for name, img in layers.items():
+        assert np.array_equal(stokes.read_exr(tmp_path / "layers" / f"{name}.exr"), img), name
+    assert stokes.load_scene(scene).render("pt-hero", spp=1).strategy_images == {}
