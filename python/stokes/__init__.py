@@ -43,6 +43,39 @@ __all__ = [
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+def _srgb(self: Render, exposure: float = 0.0) -> np.ndarray:
+    """The image display-encoded: linear sRGB times 2**exposure, clipped to [0, 1], through
+    the sRGB transfer curve; (H, W, 3) float32, ready for ``matplotlib.pyplot.imshow``."""
+    x = np.clip(self.rgb * np.float32(2.0 ** exposure), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055).astype(
+        np.float32
+    )
+
+
+def _repr_png_(self: Render) -> bytes:
+    """The image as PNG bytes (sRGB, 8 bits): Jupyter shows a Render as its image."""
+    import struct
+    import zlib
+
+    px = np.round(_srgb(self) * 255.0).astype(np.uint8)
+    h, w, _ = px.shape
+    raw = b"".join(b"\x00" + px[y].tobytes() for y in range(h))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF
+        )
+
+    ihdr = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw, 6))
+            + chunk(b"IEND", b""))
+
+
+# display helpers, written over the compiled class
+Render.srgb = _srgb
+Render._repr_png_ = _repr_png_
+
+
 def load_scene(path: PathLike) -> Scene:
     """Load and check a scene file (JSON; docs/scene-format.md) and build its BVH.
 

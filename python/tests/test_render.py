@@ -235,3 +235,27 @@ def test_strategy_images_sum_to_the_image_and_match_the_cli(cli, tmp_path):
     for name, img in layers.items():
         assert np.array_equal(stokes.read_exr(tmp_path / "layers" / f"{name}.exr"), img), name
     assert stokes.load_scene(scene).render("pt-hero", spp=1).strategy_images == {}
+
+
+def test_display_helpers():
+    import zlib
+
+    r = stokes.load_scene(SCENES / "cornell-box.json").render("pt-hero", spp=1)
+    s = r.srgb()
+    assert s.shape == r.rgb.shape and s.dtype == np.float32
+    assert s.min() >= 0.0 and s.max() <= 1.0
+    assert (r.srgb(exposure=-4) <= s + 1e-7).all()
+    png = r._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    # decode it: IHDR size, then rows of (filter 0, RGB bytes) that are round(srgb * 255)
+    w, h = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+    assert (w, h) == (256, 256)
+    pos, idat = 8, b""
+    while pos < len(png):
+        n = int.from_bytes(png[pos:pos + 4], "big")
+        if png[pos + 4:pos + 8] == b"IDAT":
+            idat += png[pos + 8:pos + 8 + n]
+        pos += 12 + n
+    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + 3 * w)
+    assert (rows[:, 0] == 0).all()
+    assert np.array_equal(rows[:, 1:].reshape(h, w, 3), np.round(s * 255).astype(np.uint8))
