@@ -86,50 +86,28 @@ fn pairwise<'py>(
 
 #[pymethods]
 impl Mixture {
-    /// The mixture density p(λi, λo) (Hua eq. 1) at pairs of wavelengths (1-D float64 arrays
-    /// of one length), per nm².
-    fn _pdf<'py>(
+    /// One of the model's functions at pairs of wavelengths (two 1-D float64 arrays of one
+    /// length; `stokes.gmm` broadcasts and reshapes): ``"pdf"`` the mixture density p(λi, λo)
+    /// per nm² (Hua eq. 1); ``"kernel"`` ρ(λi → λo) = S·p on λo > λi inside the measured
+    /// support, per nm; ``"pdf_out"`` the density of ``sample_out`` (λo given λi, the arrays
+    /// λi, λo) and ``"pdf_in"`` that of ``sample_in`` (λi given λo, the arrays λo, λi), per nm.
+    fn _evaluate<'py>(
         &self,
         py: Python<'py>,
-        lambda_in: PyReadonlyArray1<'py, f64>,
-        lambda_out: PyReadonlyArray1<'py, f64>,
+        which: &str,
+        a: PyReadonlyArray1<'py, f64>,
+        b: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let c = &self.file.components;
-        pairwise(py, lambda_in, lambda_out, |i, o| mixture_density(c, [i, o]))
-    }
-
-    /// The reradiation kernel ρ(λi → λo) = S·p(λi, λo) on λo > λi inside the measured support
-    /// (zero elsewhere), per nm.
-    fn _kernel<'py>(
-        &self,
-        py: Python<'py>,
-        lambda_in: PyReadonlyArray1<'py, f64>,
-        lambda_out: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let m = &self.conditional;
-        pairwise(py, lambda_in, lambda_out, |i, o| m.kernel(i, o))
-    }
-
-    /// The density of ``sample_out``: λo given λi, per nm.
-    fn _pdf_out<'py>(
-        &self,
-        py: Python<'py>,
-        lambda_in: PyReadonlyArray1<'py, f64>,
-        lambda_out: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let m = &self.conditional;
-        pairwise(py, lambda_in, lambda_out, |i, o| m.density(i, o, 0))
-    }
-
-    /// The density of ``sample_in``: λi given λo, per nm.
-    fn _pdf_in<'py>(
-        &self,
-        py: Python<'py>,
-        lambda_out: PyReadonlyArray1<'py, f64>,
-        lambda_in: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let m = &self.conditional;
-        pairwise(py, lambda_out, lambda_in, |o, i| m.density(o, i, 1))
+        let (c, m) = (&self.file.components, &self.conditional);
+        match which {
+            "pdf" => pairwise(py, a, b, |i, o| mixture_density(c, [i, o])),
+            "kernel" => pairwise(py, a, b, |i, o| m.kernel(i, o)),
+            "pdf_out" => pairwise(py, a, b, |i, o| m.density(i, o, 0)),
+            "pdf_in" => pairwise(py, a, b, |o, i| m.density(o, i, 1)),
+            _ => Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "unknown function {which:?}: pdf, kernel, pdf_out or pdf_in"
+            ))),
+        }
     }
 
     /// ∫ρ(λi → λo) dλo: the fraction of light at λi that is reradiated (1-D arrays).

@@ -59,26 +59,26 @@ def _pairs(a, b):
 def _pdf(self: Mixture, lambda_in, lambda_out) -> np.ndarray:
     """The mixture density p(λi, λo) (Hua eq. 1), per nm², at broadcast arrays of wavelengths."""
     a, b, shape = _pairs(lambda_in, lambda_out)
-    return self._pdf(a, b).reshape(shape)
+    return self._evaluate("pdf", a, b).reshape(shape)
 
 
 def _kernel(self: Mixture, lambda_in, lambda_out) -> np.ndarray:
     """The reradiation kernel ρ(λi → λo) = S·p(λi, λo) on λo > λi inside the measured support
     (zero elsewhere), per nm."""
     a, b, shape = _pairs(lambda_in, lambda_out)
-    return self._kernel(a, b).reshape(shape)
+    return self._evaluate("kernel", a, b).reshape(shape)
 
 
 def _pdf_out(self: Mixture, lambda_in, lambda_out) -> np.ndarray:
     """The density of :meth:`sample_out`: λo given λi, per nm."""
     a, b, shape = _pairs(lambda_in, lambda_out)
-    return self._pdf_out(a, b).reshape(shape)
+    return self._evaluate("pdf_out", a, b).reshape(shape)
 
 
 def _pdf_in(self: Mixture, lambda_out, lambda_in) -> np.ndarray:
     """The density of :meth:`sample_in`: λi given λo, per nm."""
     a, b, shape = _pairs(lambda_out, lambda_in)
-    return self._pdf_in(a, b).reshape(shape)
+    return self._evaluate("pdf_in", a, b).reshape(shape)
 
 
 def _total_out(self: Mixture, lambda_in) -> np.ndarray:
