@@ -30,13 +30,9 @@ if [ -x "$py" ] && check; then
     exit 0
 fi
 
-command -v python3 >/dev/null || die "python3 is not installed"
-if ! python3 -c 'import venv, ensurepip' 2>/dev/null; then
-    [ "$(id -u)" -eq 0 ] || die "python3's venv module is missing (Debian: apt-get install python3-venv)"
-    echo "colour-setup: installing python3-venv"
-    apt-get update -qq >/dev/null && apt-get install -y -qq python3-venv >/dev/null \
-        || die "apt-get install python3-venv failed"
-fi
+# shellcheck source=lib/python-venv.sh
+. scripts/lib/python-venv.sh
+need_python_venv colour-setup
 rm -rf "$venv"
 mkdir -p target
 python3 -m venv "$venv" || die "cannot make the virtual environment $venv"

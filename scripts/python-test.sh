@@ -19,13 +19,9 @@ die() {
     exit 1
 }
 
-command -v python3 >/dev/null || die "python3 is not installed"
-if ! python3 -c 'import venv, ensurepip' 2>/dev/null; then
-    [ "$(id -u)" -eq 0 ] || die "python3's venv module is missing (Debian: apt-get install python3-venv)"
-    echo "python-test: installing python3-venv"
-    apt-get update -qq >/dev/null && apt-get install -y -qq python3-venv >/dev/null \
-        || die "apt-get install python3-venv failed"
-fi
+# shellcheck source=lib/python-venv.sh
+. scripts/lib/python-venv.sh
+need_python_venv python-test
 
 step() {
     local what=$1

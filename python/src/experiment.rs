@@ -77,16 +77,10 @@ pub fn load_run<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDi
     stokes::io::tree::check_run_folder(&run).map_err(|m| input_error(&m, None, None, &m))?;
     let d = PyDict::new(py);
     d.set_item("path", &run)?;
-    let info_text =
-        stokes::io::input::read_text(&run.join("run.json"), stokes::io::input::RUN_RECORD)
-            .map_err(|m| input_error(&m, None, None, &m))?;
-    d.set_item("info", json::loads(py, &info_text)?)?;
+    d.set_item("info", read_record(py, &run.join("run.json"))?)?;
     if run.join("sweep.json").is_file() {
         // a sweep: one run folder per value, under sweep/<index>/
-        let text =
-            stokes::io::input::read_text(&run.join("sweep.json"), stokes::io::input::RUN_RECORD)
-                .map_err(|m| input_error(&m, None, None, &m))?;
-        d.set_item("sweep", json::loads(py, &text)?)?;
+        d.set_item("sweep", read_record(py, &run.join("sweep.json"))?)?;
         d.set_item("points", files(&run.join("sweep"), |p| p.is_dir())?)?;
         d.set_item("metrics", PyList::empty(py))?;
         d.set_item("summary", PyList::empty(py))?;
@@ -98,14 +92,8 @@ pub fn load_run<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDi
             list.append(row_dict(py, r)?)?;
         }
         d.set_item("metrics", list)?;
-        let summary = run.join("summary.json");
-        if summary.is_file() {
-            let text = stokes::io::input::read_text(&summary, stokes::io::input::RUN_RECORD)
-                .map_err(|m| input_error(&m, None, None, &m))?;
-            d.set_item("summary", json::loads(py, &text)?)?;
-        } else {
-            d.set_item("summary", PyList::empty(py))?;
-        }
+        // every complete run writes it: a missing one is a broken folder, as for the report
+        d.set_item("summary", read_record(py, &run.join("summary.json"))?)?;
         d.set_item("points", PyList::empty(py))?;
     }
     let is_image = |p: &Path| stokes::io::output::has_extension(p, "exr");
@@ -116,6 +104,18 @@ pub fn load_run<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDi
     let report = run.join("report.html");
     d.set_item("report", report.is_file().then_some(report))?;
     Ok(d)
+}
+
+/// A JSON record of a run folder (`run.json`, `summary.json`, `sweep.json`), read as the CLI
+/// reads it (a regular file within the record size cap) and parsed; errors name the file.
+fn read_record<'py>(py: Python<'py>, path: &Path) -> PyResult<Bound<'py, PyAny>> {
+    let file = path.display().to_string();
+    let text = stokes::io::input::read_text(path, stokes::io::input::RUN_RECORD)
+        .map_err(|m| input_error(&m, Some(&file), None, &m))?;
+    json::loads(py, &text).map_err(|e| {
+        let m = format!("not JSON: {e}");
+        input_error(&format!("{file}: {m}"), Some(&file), None, &m)
+    })
 }
 
 /// The entries of `dir` that pass `keep`, sorted by name (none when `dir` is missing).

@@ -201,6 +201,7 @@ def load_run(path: PathLike) -> Run:
     """Read a stored run folder, or an experiment's folder (through its ``latest``).
 
     The folder is checked as the CLI checks it before trusting it: complete (no marker of an
-    interrupted run), no links out of it, a well-formed ``run.json`` and ``metrics.csv``.
+    interrupted run), no links out of it, a well-formed ``run.json``, ``metrics.csv`` and
+    ``summary.json``.
     """
     return Run(_stokes.load_run(os.fspath(path)))

@@ -93,3 +93,20 @@ def test_ctrl_c_stops_an_experiment_and_keeps_its_marker(tmp_path):
     assert len(runs) == 1 and (runs[0] / "INCOMPLETE").is_file()
     with pytest.raises(stokes.InputError):
         stokes.load_run(runs[0])
+
+
+def test_load_run_refuses_a_run_without_its_summary(tmp_path):
+    import shutil
+
+    src = REPO / "results" / "walls-integrators"
+    run = stokes.load_run(src).path
+    copy = tmp_path / "run"
+    shutil.copytree(run, copy)
+    (copy / "summary.json").unlink()
+    with pytest.raises(stokes.InputError) as e:
+        stokes.load_run(copy)
+    assert e.value.file.endswith("summary.json")
+    (copy / "summary.json").write_text("{not json")
+    with pytest.raises(stokes.InputError) as e:
+        stokes.load_run(copy)
+    assert e.value.file.endswith("summary.json")
