@@ -1,7 +1,8 @@
 //! Path tracer throughput, 256×256, no Russian roulette, 2 threads, 4 spp per iteration:
 //! scenes/cornell-box.json at max depth 8 segments, and scenes/cornell-box-medium.json (the
 //! Mitsuba 3 `volpath` comparison: homogeneous medium, max depth 16). Throughput is reported in
-//! samples (camera paths) per second; each pt-hero sample carries 4 wavelengths.
+//! samples (camera paths) per second; each `pt-hero` sample carries 4 wavelengths (Mitsuba 3's
+//! spectral variants carry 4), each `pt-hero-8-lanes` sample 8 (the default since 2026-12-06).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -29,10 +30,10 @@ fn bench_pt(c: &mut Criterion) {
 fn bench_scene(c: &mut Criterion, file: &str, group: &str, max_depth: u32) {
     let scene = Scene::load(&Path::new("scenes").join(file).with_extension("json")).unwrap();
     assert_eq!((scene.camera.width, scene.camera.height), (256, 256));
-    let opts = IntegratorOptions {
+    let opts = |lanes| IntegratorOptions {
         max_depth,
         rr_depth: None,
-        lanes: 4,
+        lanes,
         ..Default::default()
     };
     let settings = RenderSettings {
@@ -47,8 +48,13 @@ fn bench_scene(c: &mut Criterion, file: &str, group: &str, max_depth: u32) {
     group.warm_up_time(Duration::from_secs(1));
     group.measurement_time(Duration::from_secs(5));
     group.throughput(Throughput::Elements(256 * 256 * SPP as u64));
-    for kind in [IntegratorKind::PtMono, IntegratorKind::PtHero] {
-        group.bench_function(kind.name(), |b| {
+    let runs = [
+        ("pt-mono", IntegratorKind::PtMono, opts(4)),
+        ("pt-hero", IntegratorKind::PtHero, opts(4)),
+        ("pt-hero-8-lanes", IntegratorKind::PtHero, opts(8)),
+    ];
+    for (name, kind, opts) in runs {
+        group.bench_function(name, |b| {
             b.iter(|| {
                 let out = render(&scene, kind, &opts, &settings, None).unwrap();
                 assert_eq!(out.stats.nan_inf_rejected, 0);

@@ -90,8 +90,10 @@ fn run() -> Result<(), String> {
     let mut results = Vec::new();
     let mut bins = None;
     for (kind, tracking) in configs {
+        // pt-hero with Mojzík's 4 wavelengths a path (the default is 8)
         let opts = IntegratorOptions {
             tracking,
+            lanes: 4,
             ..Default::default()
         };
         let mut m: Option<Moments> = None;

@@ -93,31 +93,32 @@ renders() {
   fi
   local R=("$bin" render --quiet --threads 2 "${size[@]}")
   set -e
+  # pt-hero renders keep 4 lanes, the hero wavelength count of Mojzík's figures (the default is 8)
   # Mojzík Fig. 11: the cube in white light (a), under light inside (c) and outside (e) the
   # absorption band, and each minus the same scene without the fluorophore (d, f).
-  "${R[@]}" scenes/media-cube.json --integrator pt-hero --spp "$s_img" -o "$x/fig11a.exr" --png "$r/mojzik-fig11a.png"
+  "${R[@]}" scenes/media-cube.json --integrator pt-hero --lanes 4 --spp "$s_img" -o "$x/fig11a.exr" --png "$r/mojzik-fig11a.png"
   for band in 450 600; do
-    "${R[@]}" "scenes/media-cube-$band.json" --integrator pt-hero --spp "$s_img" \
+    "${R[@]}" "scenes/media-cube-$band.json" --integrator pt-hero --lanes 4 --spp "$s_img" \
       -o "$x/fig11-$band.exr" --png "$r/mojzik-fig11-$band.png"
-    "${R[@]}" "scenes/media-cube-$band.json" --integrator pt-hero --spp "$s_img" \
+    "${R[@]}" "scenes/media-cube-$band.json" --integrator pt-hero --lanes 4 --spp "$s_img" \
       --set media.dye.fluorescence.concentration=0 -o "$x/fig11-$band-clear.exr"
     "$bin" diff "$x/fig11-$band.exr" "$x/fig11-$band-clear.exr" -o "$r/mojzik-fig11-$band-difference.png" \
       --title "Mojzík Fig. 11 ($band nm light): fluorescent cube minus the cube without its fluorophore" \
       > "$r/mojzik-fig11-$band-difference.txt"
   done
   # Mojzík Fig. 14: the UV sphere under UV + visible light (a) and visible light only (b).
-  "${R[@]}" scenes/uv-sphere.json --integrator pt-hero --spp "$s_img" -o "$x/fig14a.exr" --png "$r/mojzik-fig14a.png"
-  "${R[@]}" scenes/uv-sphere-visible.json --integrator pt-hero --spp "$s_img" -o "$x/fig14b.exr" --png "$r/mojzik-fig14b.png"
+  "${R[@]}" scenes/uv-sphere.json --integrator pt-hero --lanes 4 --spp "$s_img" -o "$x/fig14a.exr" --png "$r/mojzik-fig14a.png"
+  "${R[@]}" scenes/uv-sphere-visible.json --integrator pt-hero --lanes 4 --spp "$s_img" -o "$x/fig14b.exr" --png "$r/mojzik-fig14b.png"
   "$bin" diff "$x/fig14a.exr" "$x/fig14b.exr" -o "$r/mojzik-fig14-difference.png" \
     --title "Mojzík Fig. 14: UV + visible light minus visible light only" > "$r/mojzik-fig14-difference.txt"
   # Mojzík Fig. 15: the fluorescent smoke in the visible (a), in its UV absorption band (b), in
   # its emission band and outside both bands (d), with band sensors; and a spectral image.
-  "${R[@]}" scenes/media-smoke.json --integrator pt-hero --spp "$s_smoke" -o "$x/fig15a.exr" \
+  "${R[@]}" scenes/media-smoke.json --integrator pt-hero --lanes 4 --spp "$s_smoke" -o "$x/fig15a.exr" \
     --png "$r/mojzik-fig15a-visible.png" --spectral 25 --stats "$r/mojzik-fig15a-stats.json"
   local band name
   for band in "300,380:uv" "540,580:emission" "600,780:outside"; do
     name=${band#*:}
-    "${R[@]}" scenes/media-smoke.json --integrator pt-hero --spp "$s_smoke" \
+    "${R[@]}" scenes/media-smoke.json --integrator pt-hero --lanes 4 --spp "$s_smoke" \
       --set "camera.sensor={\"band\":[${band%:*}]}" -o "$x/fig15-$name.exr"
     "$bin" png "$x/fig15-$name.exr" -o "$r/mojzik-fig15-$name.png" > "$r/mojzik-fig15-$name.txt"
   done

@@ -32,10 +32,12 @@ fn small(name: &str) -> Scene {
     s
 }
 
-/// XYZ summed over the four quadrants (top-left, top-right, bottom-left, bottom-right).
-fn quadrant_sums(scene: &Scene, kind: IntegratorKind) -> [Vec3; 4] {
+/// XYZ summed over the four quadrants (top-left, top-right, bottom-left, bottom-right), pt-hero
+/// with `lanes` wavelengths a path.
+fn quadrant_sums(scene: &Scene, kind: IntegratorKind, lanes: u32) -> [Vec3; 4] {
     let opts = IntegratorOptions {
         max_depth: 6,
+        lanes,
         ..Default::default()
     };
     let st = RenderSettings {
@@ -82,7 +84,8 @@ fn pixel_sums_match_the_pinned_values() {
     for scene_name in ["cornell-box", "fluorescent-walls"] {
         let scene = small(scene_name);
         for kind in IntegratorKind::all() {
-            let got = quadrant_sums(&scene, kind);
+            // pt-hero's pins were recorded with 4 lanes, the default until 2026-12-06
+            let got = quadrant_sums(&scene, kind, 4);
             if print {
                 let q: Vec<String> = got
                     .iter()
@@ -110,6 +113,41 @@ fn pixel_sums_match_the_pinned_values() {
         }
     }
     assert!(print || checked == 2 * 6 * 12, "checked {checked} values");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// pt-hero with its default lanes (8, on the generic lane array rather than `Vec4`), pinned when
+/// the default changed from 4.
+#[test]
+fn hero_default_lanes_sums_match_the_pinned_values() {
+    #[rustfmt::skip]
+    const HERO8: [(&str, [[f32; 3]; 4]); 2] = [
+        ("cornell-box", [[3.194583e1, 3.086253e1, 2.7138376e1], [2.5831242e1, 2.7895046e1, 2.4200508e1], [8.429104e0, 7.497089e0, 5.515273e0], [7.39592e0, 9.041126e0, 5.758504e0]]),
+        ("fluorescent-walls", [[8.7001324e-1, 1.7386239e0, 2.102133e0], [5.648926e-1, 6.032165e-1, 5.8320135e-1], [2.40066e0, 1.4928963e0, 1.2648371e1], [2.3725665e0, 2.8260604e-1, 1.1160566e1]]),
+    ];
+    let lanes = IntegratorOptions::default().lanes;
+    let print = std::env::var_os("STOKES_PRINT_PINS").is_some();
+    let mut failures = Vec::new();
+    for (scene_name, want) in HERO8 {
+        let got = quadrant_sums(&small(scene_name), IntegratorKind::PtHero, lanes);
+        if print {
+            let q: Vec<String> = got
+                .iter()
+                .map(|v| format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z))
+                .collect();
+            println!("        (\"{scene_name}\", [{}]),", q.join(", "));
+            continue;
+        }
+        for (g, w) in got.iter().zip(want) {
+            for (a, b) in g.to_array().iter().zip(w) {
+                if (a - b).abs() > 1e-5 * b.abs().max(1e-3) {
+                    failures.push(format!(
+                        "{scene_name} pt-hero {lanes} lanes: {a} vs pinned {b}"
+                    ));
+                }
+            }
+        }
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 

@@ -190,7 +190,9 @@ fn plain_render_carries_the_attributes_but_not_the_sums() {
         film["sceneHash"],
         text_hash(&std::fs::read_to_string(&scene).unwrap())
     );
-    assert_eq!(film["options"]["lanes"], 4);
+    // the options in effect, defaults included
+    let lanes = stokes::integrator::IntegratorOptions::default().lanes;
+    assert_eq!(film["options"]["lanes"], lanes);
     let e = read_shard(&out)
         .err()
         .expect("a plain render holds no sums");
