@@ -133,7 +133,7 @@ impl Scene {
     }
 
     /// Whether anything blocks the segment of length `t_max`.
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         self.accel.occluded(ray, t_max)
     }

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::collapse::{Plan, collapse};
 use super::leaf::{Prim, TriBlock};
 use super::nodes::{FULL_NODES_MAX, Node8, QNode8};
-use super::{Accel, BuildQuality, Isa, Nodes};
+use super::{Accel, BuildQuality, Isa, Kernel, Nodes};
 use crate::geometry::{Sphere, Triangle};
 
 impl Accel {
@@ -62,6 +62,7 @@ impl Accel {
                 stack_size: 0,
                 sah: [0.0; 2],
                 isa: Isa::active(),
+                kernel: Kernel::Empty,
                 flat: Vec::new(),
                 quality: None,
                 build_seconds: 0.0,
@@ -142,10 +143,12 @@ impl Accel {
             stack_size: 7 * depth + 1,
             sah,
             isa: Isa::active(),
+            kernel: Kernel::Empty,
             flat: Self::flat_blocks(triangles, spheres),
             quality: None,
             build_seconds: start.elapsed().as_secs_f64(),
         }
+        .with_kernel()
     }
 
     /// The 8-wide nodes and the leaf packets for the binary BVH over primitive pieces

@@ -179,6 +179,8 @@ pub struct Accel {
     stack_size: usize,
     /// The instruction set of the kernels ([`Isa::active`] when built).
     isa: Isa,
+    /// The traversal every ray takes, from `isa` and the layout (`Kernel::of`).
+    kernel: Kernel,
     /// The tree's node visits and packet tests per ray through the root box, in the
     /// surface-area model (`Collapsed::sah`).
     sah: [f64; 2],
@@ -190,6 +192,33 @@ pub struct Accel {
     /// explicit obvhs parameters. Then the build's wall time in seconds.
     quality: Option<(BuildQuality, BuildQuality)>,
     build_seconds: f64,
+}
+
+/// The traversal a ray takes: the empty scene's, the flat loop of tiny scenes or the tree's, in
+/// the accelerator's instruction set. Chosen once ([`Kernel::of`]), so that a ray pays one load
+/// and one jump for the choice instead of three tests.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernel {
+    Empty,
+    Portable,
+    Avx2Tree,
+    Avx2Flat,
+    Avx512Tree,
+    Avx512Flat,
+}
+
+impl Kernel {
+    fn of(a: &Accel) -> Kernel {
+        let flat = !a.flat.is_empty();
+        match a.isa {
+            _ if a.nodes.is_empty() => Kernel::Empty,
+            Isa::Avx512 if flat => Kernel::Avx512Flat,
+            Isa::Avx512 => Kernel::Avx512Tree,
+            Isa::Avx2 if flat => Kernel::Avx2Flat,
+            Isa::Avx2 => Kernel::Avx2Tree,
+            Isa::Portable => Kernel::Portable,
+        }
+    }
 }
 
 impl Accel {
@@ -222,7 +251,14 @@ impl Accel {
             return Err(IsaError::Unsupported(isa));
         }
         self.isa = isa;
+        self.kernel = Kernel::of(self);
         Ok(())
+    }
+
+    /// `self` with its `kernel` chosen.
+    fn with_kernel(mut self) -> Self {
+        self.kernel = Kernel::of(&self);
+        self
     }
 
     /// The tree's cost in the surface-area model, for profiling: the node visits and the packet
@@ -269,66 +305,58 @@ impl Accel {
 
     /// Closest hit with t in (0, t_max). Primitive ids `0..triangles.len()` are triangles
     /// (u, v = barycentrics of v1 and v2), then spheres (u, v unused, 0).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        if self.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+        if t_max.is_nan() || t_max <= 0.0 {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
-        {
-            let (o, d) = (ray.o, ray.d);
-            match (self.isa, self.flat.is_empty()) {
-                // SAFETY: `isa` is only set to an instruction set the CPU supports
-                // (`Isa::supported`).
-                (Isa::Avx512, true) => {
-                    return unsafe { self.intersect_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Avx512, false) => {
-                    return unsafe {
-                        self.intersect_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
-                    };
-                }
-                (Isa::Avx2, true) => {
-                    return unsafe { self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Avx2, false) => {
-                    return unsafe { self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Portable, _) => {}
-            }
+        let (o, d) = (ray.o, ray.d);
+        // SAFETY (every kernel but the portable one): `Kernel::of` chooses an instruction set
+        // only where the CPU supports it (`Isa::supported`).
+        match self.kernel {
+            Kernel::Empty => None,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512Tree => unsafe {
+                self.intersect_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512Flat => unsafe {
+                self.intersect_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2Tree => unsafe { self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2Flat => unsafe { self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            _ => self.intersect_portable(ray, t_max),
         }
-        self.intersect_portable(ray, t_max)
     }
 
     /// Any hit with t in (0, t_max).
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        if self.nodes.is_empty() || t_max.is_nan() || t_max <= 0.0 {
+        if t_max.is_nan() || t_max <= 0.0 {
             return false;
         }
         #[cfg(target_arch = "x86_64")]
-        {
-            let (o, d) = (ray.o, ray.d);
-            match (self.isa, self.flat.is_empty()) {
-                // SAFETY: see `intersect`.
-                (Isa::Avx512, true) => {
-                    return unsafe { self.occluded_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Avx512, false) => {
-                    return unsafe {
-                        self.occluded_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
-                    };
-                }
-                (Isa::Avx2, true) => {
-                    return unsafe { self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Avx2, false) => {
-                    return unsafe { self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) };
-                }
-                (Isa::Portable, _) => {}
-            }
+        let (o, d) = (ray.o, ray.d);
+        // SAFETY: see `intersect`.
+        match self.kernel {
+            Kernel::Empty => false,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512Tree => unsafe {
+                self.occluded_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512Flat => unsafe {
+                self.occluded_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2Tree => unsafe { self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2Flat => unsafe { self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            _ => self.occluded_portable(ray, t_max),
         }
-        self.occluded_portable(ray, t_max)
     }
 }
 
