@@ -3,11 +3,49 @@
 //! the same XYZ up to rounding (the products are taken in another order), the same splat
 //! position, the same statistics and the same random numbers drawn.
 
-use crate::integrator::bdpt::plain::{PlainTrial, plain_for_test};
-use crate::integrator::bdpt::{Bdpt, ResetMode};
+use crate::integrator::bdpt::connection::Contribution;
+use crate::integrator::bdpt::{Bdpt, ResetMode, Scratch};
 use crate::integrator::{Integrator, IntegratorOptions, MisHeuristic, Sampler, Stats};
 use crate::scene::{NONE, Scene};
 use std::path::Path;
+
+/// One connection evaluated both ways by [`plain_for_test`]: the contribution, the statistics
+/// it added, and the next random number after it (both must draw the same numbers).
+#[derive(Clone, Debug)]
+struct PlainTrial {
+    contribution: Option<Contribution>,
+    stats: Stats,
+    next_random: f32,
+}
+
+/// Connect strategy (s, t) of the sub-paths in `scratch` as a plain path and on the full path,
+/// each from a copy of `sampler` (test hook); `None` when the path is not plain.
+fn plain_for_test(
+    b: &Bdpt,
+    scene: &Scene,
+    scratch: &mut Scratch,
+    s: usize,
+    t: usize,
+    sampler: &Sampler,
+) -> Option<[PlainTrial; 2]> {
+    if scene.has_media || !scratch.plain.covers(s, t) {
+        return None;
+    }
+    let mut run = |plain: bool| {
+        let (mut sampler, mut stats) = (sampler.clone(), Stats::default());
+        let contribution = if plain {
+            b.connect_plain(scene, (s, t), &mut sampler, scratch, &mut stats)
+        } else {
+            b.connect_full(scene, (s, t), &mut sampler, scratch, &mut stats)
+        };
+        PlainTrial {
+            contribution,
+            stats,
+            next_random: sampler.next(),
+        }
+    };
+    Some([run(true), run(false)])
+}
 
 fn load(name: &str) -> Scene {
     Scene::load(Path::new(&format!("scenes/{name}.json"))).unwrap()
