@@ -60,6 +60,30 @@ fn quadrant_sums(scene: &Scene, kind: IntegratorKind, lanes: u32) -> [Vec3; 4] {
     q
 }
 
+/// Quadrant sums as a pin table's entry (`STOKES_PRINT_PINS`).
+fn pin_text(got: &[Vec3; 4]) -> String {
+    let q: Vec<String> = got
+        .iter()
+        .map(|v| format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z))
+        .collect();
+    format!("[{}]", q.join(", "))
+}
+
+/// Compare quadrant sums with their pins (1e-5 relative), noting each mismatch in `failures`;
+/// the number of values compared.
+fn compare(got: &[Vec3; 4], want: &[[f32; 3]; 4], what: &str, failures: &mut Vec<String>) -> usize {
+    let mut n = 0;
+    for (g, w) in got.iter().zip(want) {
+        for (a, b) in g.to_array().iter().zip(w) {
+            n += 1;
+            if (a - b).abs() > 1e-5 * b.abs().max(1e-3) {
+                failures.push(format!("{what}: {a} vs pinned {b}"));
+            }
+        }
+    }
+    n
+}
+
 #[rustfmt::skip]
 const PINS: &[(&str, &str, [[f32; 3]; 4])] = &[
     ("cornell-box", "pt-mono", [[3.9950466e1, 4.2130436e1, 2.538577e1], [2.2131037e1, 3.1219921e1, 1.1012493e1], [6.77188e0, 5.9456005e0, 6.1559324e0], [6.74998e0, 8.198614e0, 5.2791796e0]]),
@@ -87,14 +111,10 @@ fn pixel_sums_match_the_pinned_values() {
             // pt-hero's pins were recorded with 4 lanes, the default until 2026-12-06
             let got = quadrant_sums(&scene, kind, 4);
             if print {
-                let q: Vec<String> = got
-                    .iter()
-                    .map(|v| format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z))
-                    .collect();
                 println!(
-                    "    (\"{scene_name}\", \"{}\", [{}]),",
+                    "    (\"{scene_name}\", \"{}\", {}),",
                     kind.name(),
-                    q.join(", ")
+                    pin_text(&got)
                 );
                 continue;
             }
@@ -102,14 +122,8 @@ fn pixel_sums_match_the_pinned_values() {
                 .iter()
                 .find(|(s, k, _)| *s == scene_name && *k == kind.name())
                 .unwrap_or_else(|| panic!("no pinned value for {scene_name} {}", kind.name()));
-            for (g, want) in got.iter().zip(pin.2) {
-                for (a, b) in g.to_array().iter().zip(want) {
-                    checked += 1;
-                    if (a - b).abs() > 1e-5 * b.abs().max(1e-3) {
-                        failures.push(format!("{scene_name} {}: {a} vs pinned {b}", kind.name()));
-                    }
-                }
-            }
+            let what = format!("{scene_name} {}", kind.name());
+            checked += compare(&got, &pin.2, &what, &mut failures);
         }
     }
     assert!(print || checked == 2 * 6 * 12, "checked {checked} values");
@@ -131,22 +145,11 @@ fn hero_default_lanes_sums_match_the_pinned_values() {
     for (scene_name, want) in HERO8 {
         let got = quadrant_sums(&small(scene_name), IntegratorKind::PtHero, lanes);
         if print {
-            let q: Vec<String> = got
-                .iter()
-                .map(|v| format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z))
-                .collect();
-            println!("        (\"{scene_name}\", [{}]),", q.join(", "));
+            println!("        (\"{scene_name}\", {}),", pin_text(&got));
             continue;
         }
-        for (g, w) in got.iter().zip(want) {
-            for (a, b) in g.to_array().iter().zip(w) {
-                if (a - b).abs() > 1e-5 * b.abs().max(1e-3) {
-                    failures.push(format!(
-                        "{scene_name} pt-hero {lanes} lanes: {a} vs pinned {b}"
-                    ));
-                }
-            }
-        }
+        let what = format!("{scene_name} pt-hero {lanes} lanes");
+        compare(&got, &want, &what, &mut failures);
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
