@@ -19,7 +19,12 @@ use stokes::integrator::{
 };
 use stokes::scene::Scene;
 
-const CHOICES: [ResetChoice; 3] = [ResetChoice::Both, ResetChoice::Random, ResetChoice::Sample];
+const CHOICES: [ResetChoice; 4] = [
+    ResetChoice::Both,
+    ResetChoice::Random,
+    ResetChoice::Sample,
+    ResetChoice::Adaptive,
+];
 
 /// Every shipped scene with fluorescent materials or media that bdpt-combined accepts, at `size`×`size` pixels.
 fn fluorescent_scenes(size: u32) -> Vec<(String, Scene)> {
@@ -166,4 +171,44 @@ fn one_sample_choices_evaluate_fewer_connections() {
     );
     eprintln!("contributions: both {both}, random {random}, sample {sample}");
     assert!(random < both && sample < both, "{both} {random} {sample}");
+}
+
+/// `--reset-choice adaptive` on the fluorescent walls: after the pilot the back wall, where
+/// bdpt-backward's error is lower at the same cost, takes the backward reset, and the floor, where
+/// bdpt-forward's is as low at a lower cost, the forward one; the choice and the image do not
+/// depend on the number of threads, and a render shorter than the pilot chooses nothing.
+#[test]
+fn adaptive_choice_takes_each_walls_better_reset() {
+    let scene = common::load_sized("fluorescent-walls.json", 64);
+    let opts = IntegratorOptions {
+        reset_choice: ResetChoice::Adaptive,
+        ..Default::default()
+    };
+    let render_with = |threads, spp| {
+        let settings = RenderSettings {
+            first_sample: 0,
+            spp,
+            seed: 9,
+            threads: Some(threads),
+            ..Default::default()
+        };
+        render(&scene, IntegratorKind::BdptCombined, &opts, &settings, None).unwrap()
+    };
+    let (one, two) = (render_with(1, 16), render_with(2, 16));
+    let choices = &two.stats.reset_choices;
+    eprintln!("{choices:?}");
+    assert!(
+        choices.contains(&"back: backward".to_string()),
+        "{choices:?}"
+    );
+    assert!(
+        choices.contains(&"floor: forward".to_string()),
+        "{choices:?}"
+    );
+    assert_eq!(one.stats.reset_choices, two.stats.reset_choices);
+    assert!(
+        one.film.xyz() == two.film.xyz(),
+        "images differ between 1 and 2 threads"
+    );
+    assert!(render_with(2, 7).stats.reset_choices.is_empty());
 }

@@ -109,7 +109,8 @@ pub struct RenderArgs {
     )]
     pub lane_weighting: LaneWeighting,
     /// bdpt-combined: evaluate both wavelength resets at every connection, or one chosen at
-    /// random with probability 1/2 (one-sample MIS; about one reset's cost).
+    /// random with probability 1/2 (one-sample MIS; about one reset's cost), or one per pixel
+    /// learned from the first 8 passes (adaptive).
     #[arg(
         long,
         value_parser = choice::<ResetChoice>(),

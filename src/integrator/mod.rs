@@ -111,6 +111,10 @@ named_enum! {
         /// wavelengths that reset keeps may then end at zero throughput, as in bdpt-forward or
         /// bdpt-backward.
         Sample = "sample",
+        /// One for the whole sample, chosen per pixel: the first 8 passes take forward and
+        /// backward in turn, then each group of pixels that sees one shape keeps the reset with
+        /// the lower variance times cost in rays (weights: the chosen reset's techniques only).
+        Adaptive = "adaptive",
     }
 }
 
@@ -233,6 +237,10 @@ pub struct Stats {
     /// pdf was NaN, infinite or zero, and were dropped (docs/bdpt.md).
     #[serde(default)]
     pub dropped_strategy_pdfs: u64,
+    /// bdpt-combined `--reset-choice adaptive`: the reset each group of pixels chose at the end
+    /// of the pilot ("shape: forward"); empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reset_choices: Vec<String>,
 }
 
 impl Stats {
@@ -453,6 +461,14 @@ pub trait Integrator: Sync {
     fn aux_layers(&self) -> Vec<String> {
         Vec::new()
     }
+    /// Whether the integrator learns from the passes it renders ([`Integrator::end_pass`]): the
+    /// render loop then adds each pass's light-tracing splats to the film before calling it.
+    fn adapting(&self) -> bool {
+        false
+    }
+    /// Called after every pass, on the calling thread, with the film and the statistics so far
+    /// (an integrator that adapts between passes updates itself here).
+    fn end_pass(&self, _film: &crate::film::Film, _stats: &mut Stats) {}
     /// Trace one sample through film position (x, y) (pixels, continuous).
     fn sample(
         &self,

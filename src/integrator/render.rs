@@ -70,7 +70,7 @@ impl RenderOutput {
     /// `Render.stats`.
     pub fn stats_json(&self, kind: IntegratorKind, opts: &IntegratorOptions) -> serde_json::Value {
         let (out, s) = (self, &self.stats);
-        serde_json::json!({
+        let mut json = serde_json::json!({
             "integrator": kind.name(),
             "options": opts,
             // the instruction set of the ray kernels (the scene's BVH is built with the process's)
@@ -87,7 +87,11 @@ impl RenderOutput {
             "paths": s.paths,
             "contributing_paths": s.contributing_paths,
             "contributing_paths_by_segments": s.contributing_by_length,
-        })
+        });
+        if !s.reset_choices.is_empty() {
+            json["reset_choices"] = serde_json::json!(s.reset_choices);
+        }
+        json
     }
 }
 
@@ -395,6 +399,22 @@ fn add_aux(
     }
 }
 
+/// The progress bar of a render on a terminal (samples per pixel), `None` elsewhere.
+fn progress_bar(settings: &RenderSettings) -> Option<indicatif::ProgressBar> {
+    if !settings.progress || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(settings.spp as u64);
+    b.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} spp  eta {eta}  {msg}",
+        )
+        .unwrap()
+        .progress_chars("=> "),
+    );
+    Some(b)
+}
+
 /// Run any integrator through the pass loop.
 pub fn run<I: Integrator>(
     scene: &Scene,
@@ -417,19 +437,7 @@ pub fn run<I: Integrator>(
     let scratches = Scratches::new(|| integrator.scratch(scene));
     let mut stats = Stats::default();
     let start = Instant::now();
-    let bar = if settings.progress && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        let b = indicatif::ProgressBar::new(settings.spp as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} spp  eta {eta}  {msg}",
-            )
-            .unwrap()
-            .progress_chars("=> "),
-        );
-        Some(b)
-    } else {
-        None
-    };
+    let bar = progress_bar(settings);
     let end = settings
         .first_sample
         .checked_add(settings.spp)
@@ -479,7 +487,13 @@ pub fn run<I: Integrator>(
         std::mem::swap(&mut rows, &mut done);
         pending = true;
         film.spp += 1;
-        if on_pass.is_some() {
+        if integrator.adapting() {
+            // it learns from this pass's pixel values, splats included
+            add_splats(&mut film.splat, &done, w);
+            pending = false;
+            integrator.end_pass(&film, &mut stats);
+        }
+        if on_pass.is_some() && pending {
             // the callback sees the film with this pass's splats
             add_splats(&mut film.splat, &done, w);
             pending = false;

@@ -35,6 +35,9 @@ pub enum Evaluate {
     /// One reset: the other keeps a sub-path prefix of zero throughput, so its contribution is
     /// 0 and it is not evaluated.
     Only(ResetMode),
+    /// The one reset of the sample's pixel, taken with probability 1 (`--reset-choice
+    /// adaptive`).
+    Chosen(ResetMode),
 }
 
 impl Evaluate {
@@ -67,6 +70,11 @@ impl Evaluate {
                 ResetMode::Backward if light => Evaluate::One(ResetMode::Backward),
                 _ => return None,
             },
+            (cam, light, ResetChoice::Adaptive) => match sample_reset {
+                ResetMode::Forward if cam => Evaluate::Chosen(ResetMode::Forward),
+                ResetMode::Backward if light => Evaluate::Chosen(ResetMode::Backward),
+                _ => return None,
+            },
             (true, false, _) => Evaluate::Only(ResetMode::Forward),
             (false, true, _) => Evaluate::Only(ResetMode::Backward),
             (false, false, _) => return None,
@@ -79,12 +87,12 @@ impl Evaluate {
         match self {
             Evaluate::Both => &[ResetMode::Forward, ResetMode::Backward],
             Evaluate::LightTracing => &[ResetMode::Forward],
-            Evaluate::One(ResetMode::Forward) | Evaluate::Only(ResetMode::Forward) => {
-                &[ResetMode::Forward]
-            }
-            Evaluate::One(ResetMode::Backward) | Evaluate::Only(ResetMode::Backward) => {
-                &[ResetMode::Backward]
-            }
+            Evaluate::One(ResetMode::Forward)
+            | Evaluate::Only(ResetMode::Forward)
+            | Evaluate::Chosen(ResetMode::Forward) => &[ResetMode::Forward],
+            Evaluate::One(ResetMode::Backward)
+            | Evaluate::Only(ResetMode::Backward)
+            | Evaluate::Chosen(ResetMode::Backward) => &[ResetMode::Backward],
         }
     }
 
@@ -111,7 +119,7 @@ impl Evaluate {
     pub fn unweighted(self) -> f64 {
         match self {
             Evaluate::Both | Evaluate::Only(_) => 0.5,
-            Evaluate::One(_) | Evaluate::LightTracing => 1.0,
+            Evaluate::One(_) | Evaluate::LightTracing | Evaluate::Chosen(_) => 1.0,
         }
     }
 }
@@ -296,7 +304,15 @@ impl Bdpt {
                 how.unweighted()
             } else if p_mis > 0.0 && p_mis.is_finite() {
                 let both = how == Evaluate::LightTracing;
-                path.combined_weight(s, mode, both, self.mis) * how.inverse_choice()
+                let n = self.counts_of(scene, splat, scratch.counts);
+                let w = match n {
+                    // one reset only (`--reset-choice adaptive`): its own weight, which needs
+                    // only its wavelength pdf table (`combined_weights.rs`: the same to 1e-12)
+                    [1.0, 0.0] => path.mis_weight(s, ResetMode::Forward, self.mis),
+                    [0.0, 1.0] => path.mis_weight(s, ResetMode::Backward, self.mis),
+                    _ => path.combined_weight(s, mode, both, self.mis, n),
+                };
+                w * how.inverse_choice()
             } else {
                 // as in `evaluate::connect_full`: weight 0, a loss only if no technique is left
                 let lost = p_mis != 0.0 || !path.any_technique();

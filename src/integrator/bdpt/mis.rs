@@ -18,6 +18,16 @@ pub enum ResetMode {
     Backward,
 }
 
+impl ResetMode {
+    /// "forward" or "backward".
+    pub fn name(self) -> &'static str {
+        match self {
+            ResetMode::Forward => "forward",
+            ResetMode::Backward => "backward",
+        }
+    }
+}
+
 /// A complete path x0 … x(k−1) with its wavelengths and all pdfs needed for MIS.
 #[derive(Clone, Debug, Default)]
 pub struct FullPath {
@@ -416,7 +426,20 @@ impl FullPath {
     /// p_r'(ŝ)^β with p_r(ŝ) = p_A(ŝ) · p_Λ,r(ŝ) (eqs. 6.3, 6.9–6.14). With `both`, the weight
     /// of (s, forward) and (s, backward) together, for light tracing (s = 1), where the two
     /// resets make the same path with the same pdf. p_Λ,mode(s) must be positive. O(k).
-    pub fn combined_weight(&self, s: usize, mode: ResetMode, both: bool, h: MisHeuristic) -> f64 {
+    ///
+    /// `[n_f, n_b]`: how many samples of each reset's techniques a pixel sample takes, up to a
+    /// common factor (Veach's one-sample model: each term is (n_r p_r(ŝ))^β); (1, 1) for
+    /// `--reset-choice both`, `random` and `sample` (the ½ of the last two cancels), one-hot for
+    /// `adaptive`, where a pixel takes one reset, which must then be `mode`'s (light tracing
+    /// counts once whatever the pixel's reset).
+    pub fn combined_weight(
+        &self,
+        s: usize,
+        mode: ResetMode,
+        both: bool,
+        h: MisHeuristic,
+        [n_f, n_b]: [f64; 2],
+    ) -> f64 {
         let mut guard = self.products.borrow_mut();
         let pr = &mut *guard;
         self.fill_wavelength_pdfs(ResetMode::Forward, pr);
@@ -430,14 +453,21 @@ impl FullPath {
                 ResetMode::Backward => bwd[s - 1],
             };
         let e = h.exponent() as i32;
-        // Σ_r (p_Λ,r(ŝ) / p_Λ,mode(s))^β
-        let shared =
-            |s_hat: usize| (fwd[s_hat - 1] * inv_own).powi(e) + (bwd[s_hat - 1] * inv_own).powi(e);
+        // a reset whose techniques this sample does not take adds nothing (not even a NaN)
+        let term = |n: f64, x: f64| if n == 0.0 { 0.0 } else { (n * x).powi(e) };
+        // Σ_r (n_r p_Λ,r(ŝ) / p_Λ,mode(s))^β
+        let shared = |s_hat: usize| {
+            term(n_f, fwd[s_hat - 1] * inv_own) + term(n_b, bwd[s_hat - 1] * inv_own)
+        };
         let own = shared(s);
         let lower = (1..s).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
         let upper = (s..k).map(|m| (self.pa_fwd[m], self.pa_rev[m]));
         let w = mis_walk_shared(lower, upper, (s, own), shared, h).1;
-        if both { w * own } else { w }
+        let n_own = match mode {
+            ResetMode::Forward => n_f,
+            ResetMode::Backward => n_b,
+        };
+        if both { w * own } else { w * n_own.powi(e) }
     }
 
     /// `bdpt-combined`: whether some technique (ŝ, r) has a positive, finite pdf. O(k).

@@ -18,10 +18,11 @@
 //! - `evaluate`: connections for all (s, t) and the throughput (eqs. 6.18, 6.19);
 //! - `media`: the segments of a connected path through media;
 //! - `combined`: `bdpt-combined`, both resets of a connection weighted among all 2k
-//!   techniques (ŝ, reset);
+//!   techniques (ŝ, reset); `adaptive`: its per-pixel choice of one reset from a pilot;
 //! - `plain` and `cache`: the fast evaluation of paths that cannot shift the wavelength, which
 //!   keeps only its product caches.
 
+pub mod adaptive;
 pub mod allbins;
 pub(crate) mod cache;
 pub mod combined;
@@ -59,6 +60,8 @@ pub struct Bdpt {
     pub(crate) mode: ResetMode,
     /// bdpt-combined: which resets each connection evaluates (`combined`).
     pub(crate) combined: Option<ResetChoice>,
+    /// bdpt-combined `--reset-choice adaptive`: the pilot and each pixel's reset.
+    pub(crate) adaptive: Option<adaptive::Adaptive>,
     pub(crate) depth: Depth,
     pub(crate) camera_wavelengths: CameraWavelengths,
     pub(crate) shift: ShiftSampling,
@@ -93,8 +96,15 @@ pub struct Scratch {
     /// (`usize::MAX`: none); bdpt-combined skips the reset that would keep it.
     pub(crate) cam_zero: usize,
     pub(crate) light_zero: usize,
-    /// bdpt-combined with `--reset-choice sample`: the reset of this sample.
+    /// bdpt-combined with `--reset-choice sample` or `adaptive`: the reset of this sample.
     pub(crate) sample_reset: ResetMode,
+    /// bdpt-combined: how many samples of each reset's (forward, backward) techniques this pixel
+    /// sample takes, up to a common factor (`FullPath::combined_weight`): (1, 1) but for
+    /// `--reset-choice adaptive`, where the pixel's reset is taken with probability 1.
+    pub(crate) counts: [f64; 2],
+    /// The pixel of the current sample (`--reset-choice adaptive`; the film position may round
+    /// to the next pixel's edge).
+    pub(crate) pixel: u32,
     /// `path.v` starts with the camera prefix of this many vertices (0: none).
     pub(crate) prefix: usize,
     /// The products and pdfs of the plain connections (`plain`).
@@ -116,7 +126,11 @@ impl Bdpt {
     /// evaluating both at each connection or one chosen at random (`o.reset_choice`).
     pub fn combined(scene: &Scene, o: &IntegratorOptions) -> Result<Self, String> {
         let choice = Some(o.reset_choice);
-        Self::checked(scene, o, "bdpt-combined", ResetMode::Forward, choice)
+        let mut b = Self::checked(scene, o, "bdpt-combined", ResetMode::Forward, choice)?;
+        if o.reset_choice == ResetChoice::Adaptive {
+            b.adaptive = Some(adaptive::Adaptive::new(scene));
+        }
+        Ok(b)
     }
 
     fn checked(
@@ -138,6 +152,7 @@ impl Bdpt {
         Ok(Bdpt {
             mode,
             combined,
+            adaptive: None,
             depth: Depth::new(o),
             camera_wavelengths: o.camera_wavelengths,
             shift: ShiftSampling::new(o.wavelength_sampling, scene.domain),
@@ -195,10 +210,17 @@ impl Bdpt {
                 };
                 forward
             }
+            Some(ResetChoice::Adaptive) => {
+                // `--reset-choice adaptive`: the pixel's one reset, taken with probability 1
+                let a = self.adaptive.as_ref().expect("adaptive state");
+                scratch.sample_reset = a.reset(scratch.pixel);
+                scratch.counts = counts(scratch.sample_reset);
+                scratch.sample_reset == ResetMode::Forward
+            }
             _ => self.mode == ResetMode::Forward,
         };
         let (cam_stop, light_stop) = match self.combined {
-            None | Some(ResetChoice::Sample) => (forward, !forward),
+            None | Some(ResetChoice::Sample | ResetChoice::Adaptive) => (forward, !forward),
             Some(_) => (false, false),
         };
         let cam = Buffers {
@@ -324,6 +346,8 @@ impl Integrator for Bdpt {
             cam_zero: usize::MAX,
             light_zero: usize::MAX,
             sample_reset: ResetMode::Forward,
+            counts: [1.0, 1.0],
+            pixel: 0,
             prefix: 0,
             plain: plain::PlainCache::default(),
             plain_backward: plain::PlainCache::default(),
@@ -343,6 +367,8 @@ impl Integrator for Bdpt {
         scratch: &mut Scratch,
         sink: &mut SampleSink,
     ) {
+        let rays = sink.stats.rays;
+        scratch.pixel = sink.pixel;
         self.trace_subpaths(scene, (x, y), sampler, scratch, sink.stats);
         let md = self.depth.segments;
         let (nc, nl) = (scratch.cam.len(), scratch.light.len());
@@ -378,5 +404,47 @@ impl Integrator for Bdpt {
                 }
             }
         }
+        if let Some(a) = &self.adaptive
+            && a.in_pilot()
+        {
+            a.record(sink.pixel, scratch.sample_reset, sink.stats.rays - rays);
+        }
+    }
+
+    fn adapting(&self) -> bool {
+        self.adaptive.as_ref().is_some_and(|a| a.in_pilot())
+    }
+
+    fn end_pass(&self, film: &crate::film::Film, stats: &mut crate::integrator::Stats) {
+        if let Some(a) = &self.adaptive {
+            a.end_pass(film, stats);
+        }
+    }
+}
+
+impl Bdpt {
+    /// The technique counts (`Scratch::counts`) of a connection's path: those of the sample's
+    /// pixel, or for light tracing (`splat`) those of the pixel it lands on.
+    #[inline]
+    pub(crate) fn counts_of(
+        &self,
+        scene: &Scene,
+        splat: Option<(f32, f32)>,
+        own: [f64; 2],
+    ) -> [f64; 2] {
+        match (splat, &self.adaptive) {
+            (Some(at), Some(a)) => a.reset_at(at, scene.camera.width).map_or(own, counts),
+            _ => own,
+        }
+    }
+}
+
+/// The technique counts of a pixel sample that takes reset `r` with probability 1
+/// (`Scratch::counts`).
+#[inline]
+pub(crate) fn counts(r: ResetMode) -> [f64; 2] {
+    match r {
+        ResetMode::Forward => [1.0, 0.0],
+        ResetMode::Backward => [0.0, 1.0],
     }
 }

@@ -498,6 +498,7 @@ impl Bdpt {
         ends: &Ends,
         changed: &Changed,
         (mode, lambda): (ResetMode, f32),
+        [n_f, n_b]: [f64; 2],
     ) -> (f64, f64) {
         let (s, light) = (ends.s, ends.e.light);
         let (cw, lw) = (self.camera_wavelengths, self.light_wavelengths);
@@ -520,14 +521,22 @@ impl Bdpt {
                 x
             }
         };
-        let (pl, pc) = (power(ple / q), power(pc0 / q));
+        // (n_r p_Λ,r / q)^β; a reset whose techniques this sample does not take adds nothing
+        // (`FullPath::combined_weight`)
+        let term = |n: f64, x: f64| if n == 0.0 { 0.0 } else { power(n * x) };
+        let (pl_f, pl_b, pc_f) = (term(n_f, ple / q), term(n_b, ple / q), term(n_f, pc0 / q));
         let ratios = BothResets {
-            below: 2.0 * pl,
-            above: pc + pl,
+            below: pl_f + pl_b,
+            above: pc_f + pl_b,
             h: self.mis,
         };
         let (area, w) = area_and_weight(ends, changed, &ratios);
-        let w = if s == 1 { w * ratios.below } else { w };
+        let n_own = if mode == ResetMode::Forward { n_f } else { n_b };
+        let w = if s == 1 {
+            w * ratios.below
+        } else {
+            w * power(n_own)
+        };
         (area * q, w)
     }
 
@@ -555,6 +564,7 @@ impl Bdpt {
             }
             v
         });
+        let scratch_counts = scratch.counts;
         let Scratch {
             cam,
             light,
@@ -607,8 +617,15 @@ impl Bdpt {
             let Some(mut f) = spectral_part::<true>(scene, &ends, &geo, lambda, &mut at) else {
                 continue;
             };
-            let (p, w) =
-                self.both_resets_weight(scene, &mut at.plain.emit, &ends, &changed, (mode, lambda));
+            let n = self.counts_of(scene, splat, scratch_counts);
+            let (p, w) = self.both_resets_weight(
+                scene,
+                &mut at.plain.emit,
+                &ends,
+                &changed,
+                (mode, lambda),
+                n,
+            );
             if t >= 1 {
                 let tr = *shadow.get_or_insert_with(|| {
                     Connection::shadow(scene, ends.a, ends.b, s == 1, &mut stats.rays)
