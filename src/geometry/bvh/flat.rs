@@ -101,10 +101,12 @@ impl Accel {
     }
 
     ray_entry!(
-        /// [`Self::intersect_flat`] compiled for AVX-512 (EVEX encodings and mask registers, 8
-        /// lanes: testing two packets at once in 16 lanes traced the Cornell box's rays 1.25× as
-        /// fast alone, but made pt-hero 0.89× as fast, the 512-bit instructions slowing the
-        /// shading code around them; docs/performance.md §1).
+        /// [`Self::intersect_flat`] on the AVX-512 path, 8 lanes (testing two packets at once in
+        /// 16 lanes traced the Cornell box's rays 1.25× as fast alone, but made pt-hero 0.89× as
+        /// fast, the 512-bit instructions slowing the shading code around them;
+        /// docs/performance.md §1). The compiler does not inline the AVX2 loop here (this entry
+        /// is a jump to it, `nm -S`), so the closest hit of tiny scenes runs the AVX2 code on
+        /// this path too; the any-hit loop below is inlined and compiled for AVX-512.
         intersect_flat_avx512,
         "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
         Option<Hit>,
