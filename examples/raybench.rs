@@ -104,6 +104,21 @@ fn main() {
         100.0 * lanes as f64 / (8 * packets).max(1) as f64,
         bytes as f64 / set.tris.len() as f64
     );
+    // The BVH's arrays of 2 MiB and more are advised for transparent huge pages (bvh/pages.rs);
+    // what the kernel gave the whole process, as it reports it.
+    if let Some(kib) = std::fs::read_to_string("/proc/self/smaps_rollup")
+        .ok()
+        .and_then(|s| {
+            let l = s.lines().find(|l| l.starts_with("AnonHugePages:"))?;
+            l.split_whitespace().nth(1)?.parse::<f64>().ok()
+        })
+    {
+        eprintln!(
+            "huge pages: {:.1} MiB of the process (BVH {:.1} MiB)",
+            kib / 1024.0,
+            bytes as f64 / (1 << 20) as f64
+        );
+    }
     eprintln!("fingerprint {:016x}", accel.fingerprint());
     let [sah_nodes, sah_packets] = accel.sah();
     eprintln!(

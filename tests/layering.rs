@@ -87,8 +87,8 @@ const CRATES: &[(&str, &[&str])] = &[
             "gmm::fit",
         ],
     ),
-    // File-system calls of inputs and outputs.
-    ("libc", &["io::input", "io::output"]),
+    // File-system calls of inputs and outputs; the BVH's huge-page mappings.
+    ("libc", &["io::input", "io::output", "geometry::bvh"]),
     ("mimalloc", &["main"]),
     // Deflate of the report's pixel encoding.
     ("miniz_oxide", &["experiment::report::encode"]),

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::collapse::{Plan, collapse};
 use super::leaf::{Prim, TriBlock};
 use super::nodes::{FULL_NODES_MAX, Node8, QNode8};
-use super::{Accel, BuildQuality, Isa, Kernel, Nodes};
+use super::{Accel, BuildQuality, Isa, Kernel, Nodes, PagedArray};
 use crate::geometry::{Sphere, Triangle};
 
 impl Accel {
@@ -54,8 +54,8 @@ impl Accel {
         assert!(n < u32::MAX as usize, "too many primitives");
         if n == 0 {
             return Accel {
-                nodes: Nodes::Quantised(Vec::new()),
-                blocks: Vec::new(),
+                nodes: Nodes::Quantised(PagedArray::new(Vec::new())),
+                blocks: PagedArray::new(Vec::new()),
                 sphere_lanes: Vec::new(),
                 n_tris: 0,
                 n_spheres: 0,
@@ -136,7 +136,7 @@ impl Accel {
             Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
         Accel {
             nodes,
-            blocks,
+            blocks: PagedArray::new(blocks),
             sphere_lanes,
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
@@ -187,11 +187,16 @@ impl Accel {
             .then(|| collapse::<Node8>(&plan, max_full))
             .flatten();
         match collapsed {
-            Some(c) => (Nodes::Full(c.nodes), packets(&c.leaves), c.depth, c.sah),
+            Some(c) => (
+                Nodes::Full(PagedArray::new(c.nodes)),
+                packets(&c.leaves),
+                c.depth,
+                c.sah,
+            ),
             None => {
                 let c = collapse::<QNode8>(&plan, usize::MAX).expect("no node limit");
                 (
-                    Nodes::Quantised(c.nodes),
+                    Nodes::Quantised(PagedArray::new(c.nodes)),
                     packets(&c.leaves),
                     c.depth,
                     c.sah,
