@@ -16,6 +16,7 @@
 use std::ops::Deref;
 
 /// Size and alignment of a huge page (x86-64 and most Linux systems).
+#[cfg_attr(not(target_os = "linux"), allow(dead_code))]
 const HUGE_PAGE: usize = 2 << 20;
 
 /// An immutable array, in a mapping of its own advised for huge pages when it fills at least
