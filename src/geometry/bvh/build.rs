@@ -55,7 +55,7 @@ impl Accel {
         if n == 0 {
             return Accel {
                 nodes: Nodes::Quantised(PagedArray::new(Vec::new())),
-                blocks: PagedArray::new(Vec::new()),
+                blocks: PagedArray::filled(0, TriBlock::UNUSED),
                 sphere_lanes: Vec::new(),
                 n_tris: 0,
                 n_spheres: 0,
@@ -136,7 +136,7 @@ impl Accel {
             Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
         Accel {
             nodes,
-            blocks: PagedArray::new(blocks),
+            blocks,
             sphere_lanes,
             n_tris: n_tris as u32,
             n_spheres: spheres.len() as u32,
@@ -207,11 +207,12 @@ impl Accel {
 }
 
 /// The leaf packets and, in scenes with spheres, each packet's sphere lanes (a bit mask).
-type Packets = (Vec<TriBlock>, Vec<u8>);
+type Packets = (PagedArray<TriBlock>, Vec<u8>);
 
 /// One packet per leaf of a collapsed BVH ([`collapse`]), its lanes the pieces that `pieces`
 /// gives for the leaf (a primitive split into several pieces of one leaf takes one lane). The
-/// packets are independent, so they are filled in parallel, each the same on any thread.
+/// packets are independent, so they are filled in parallel, each the same on any thread, and in
+/// their final memory ([`PagedArray`]: no copy of tens of megabytes at the peak of the build).
 fn pack_collapsed<'a>(
     n_leaves: usize,
     pieces: impl Fn(usize) -> &'a [u32] + Sync,
@@ -219,8 +220,8 @@ fn pack_collapsed<'a>(
     mixed: bool,
     prim: impl Fn(u32) -> (u32, Prim) + Sync,
 ) -> Packets {
-    let pack = |b: usize| {
-        let (mut blk, mut spheres) = (TriBlock::UNUSED, 0u8);
+    let pack = |b: usize, blk: &mut TriBlock| {
+        let mut spheres = 0u8;
         let mut l = 0;
         for &piece in pieces(b) {
             let (id, p) = prim(piece);
@@ -232,13 +233,15 @@ fn pack_collapsed<'a>(
             spheres |= ((id >= n_tris) as u8) << l;
             l += 1;
         }
-        (blk, spheres)
+        spheres
     };
-    let (mut blocks, mut sphere_lanes) = (Vec::new(), Vec::new());
-    (0..n_leaves)
-        .into_par_iter()
-        .map(pack)
-        .unzip_into_vecs(&mut blocks, &mut sphere_lanes);
+    let mut blocks = PagedArray::filled(n_leaves, TriBlock::UNUSED);
+    let sphere_lanes: Vec<u8> = blocks
+        .as_mut_slice()
+        .par_iter_mut()
+        .enumerate()
+        .map(|(b, blk)| pack(b, blk))
+        .collect();
     (blocks, if mixed { sphere_lanes } else { Vec::new() })
 }
 

@@ -47,14 +47,45 @@ impl<T: Copy> PagedArray<T> {
     pub fn new(v: Vec<T>) -> PagedArray<T> {
         #[cfg(target_os = "linux")]
         if std::mem::size_of_val(&v[..]) >= HUGE_PAGE
-            && let Some(a) = Self::map(&v)
+            && let Some(a) = Self::map(v.len(), |dst| {
+                // SAFETY: `dst` holds room for `v.len()` elements and does not overlap `v`.
+                unsafe { std::ptr::copy_nonoverlapping(v.as_ptr(), dst, v.len()) }
+            })
         {
             return a;
         }
+        Self::from_vec(v)
+    }
+
+    /// `len` copies of `value`, to be filled in place ([`Self::as_mut_slice`]) before the array
+    /// is shared: a large array is written straight into its huge pages, without the copy (and
+    /// the twice the memory) of [`Self::new`].
+    pub fn filled(len: usize, value: T) -> PagedArray<T> {
+        #[cfg(target_os = "linux")]
+        if len.saturating_mul(std::mem::size_of::<T>()) >= HUGE_PAGE
+            && let Some(a) = Self::map(len, |dst| {
+                for i in 0..len {
+                    // SAFETY: `dst` holds room for `len` elements.
+                    unsafe { dst.add(i).write(value) };
+                }
+            })
+        {
+            return a;
+        }
+        Self::from_vec(vec![value; len])
+    }
+
+    /// The elements, to write in place (only the owner can: the array is not shared yet).
+    pub fn as_mut_slice(&mut self) -> &mut [T] {
+        // SAFETY: `len` initialised elements at `ptr`, owned by `self`, borrowed mutably once.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.as_ptr(), self.len) }
+    }
+
+    fn from_vec(mut v: Vec<T>) -> PagedArray<T> {
         PagedArray {
-            // a `Vec`'s pointer is never null (dangling when empty)
-            ptr: std::ptr::NonNull::new(v.as_ptr() as *mut T)
-                .unwrap_or(std::ptr::NonNull::dangling()),
+            // a `Vec`'s pointer is never null (dangling when empty); moving the `Vec` into
+            // `owner` does not move its buffer
+            ptr: std::ptr::NonNull::new(v.as_mut_ptr()).unwrap_or(std::ptr::NonNull::dangling()),
             len: v.len(),
             owner: Owner::Vec(v),
         }
@@ -67,15 +98,18 @@ impl<T: Copy> PagedArray<T> {
         !matches!(self.owner, Owner::Vec(_))
     }
 
-    /// A copy of `v` in a fresh anonymous mapping that starts on a huge-page boundary and is
+    /// A fresh anonymous mapping for `len` elements that starts on a huge-page boundary and is
     /// advised for huge pages before its first touch (advice on memory already touched would
-    /// only take effect when the kernel's background thread merges the pages, if ever).
+    /// only take effect when the kernel's background thread merges the pages, if ever), its
+    /// elements written by `init` (which must write all `len`).
     #[cfg(target_os = "linux")]
-    fn map(v: &[T]) -> Option<PagedArray<T>> {
+    fn map(len: usize, init: impl FnOnce(*mut T)) -> Option<PagedArray<T>> {
         // whole huge pages, so that the array's tail is on one too (at most 2 MiB of memory
         // more, for arrays of 2 MiB and more)
-        let bytes = std::mem::size_of_val(v).next_multiple_of(HUGE_PAGE);
-        let reserve = bytes + HUGE_PAGE;
+        let bytes = len
+            .checked_mul(std::mem::size_of::<T>())?
+            .checked_next_multiple_of(HUGE_PAGE)?;
+        let reserve = bytes.checked_add(HUGE_PAGE)?;
         // SAFETY: an anonymous private mapping, no address hint; checked for failure.
         let base = unsafe {
             libc::mmap(
@@ -94,8 +128,9 @@ impl<T: Copy> PagedArray<T> {
         let start = base.next_multiple_of(HUGE_PAGE);
         let (head, tail) = (start - base, base + reserve - (start + bytes));
         // SAFETY: both ranges lie in the mapping just made and outside [start, start + bytes),
-        // and are whole pages (base is a page multiple, start and bytes huge-page multiples). The advice
-        // only concerns that range. Failure of either leaves ordinary memory, which is fine.
+        // and are whole pages (base is a page multiple, start and bytes huge-page multiples).
+        // The advice only concerns that range. Failure of either leaves ordinary memory, which
+        // is fine.
         unsafe {
             if head > 0 {
                 libc::munmap(base as *mut libc::c_void, head);
@@ -105,13 +140,13 @@ impl<T: Copy> PagedArray<T> {
             }
             libc::madvise(start as *mut libc::c_void, bytes, libc::MADV_HUGEPAGE);
         }
-        let ptr = start as *mut T;
-        // SAFETY: the mapping holds `bytes` writable bytes, at least `v`'s, aligned to 2 MiB (more than
-        // `T` needs) and does not overlap `v`.
-        unsafe { std::ptr::copy_nonoverlapping(v.as_ptr(), ptr, v.len()) };
+        // The mapping holds `bytes` writable bytes, room for `len` elements, aligned to 2 MiB
+        // (more than `T` needs).
+        let ptr = std::ptr::NonNull::new(start as *mut T)?;
+        init(ptr.as_ptr());
         Some(PagedArray {
-            ptr: std::ptr::NonNull::new(ptr)?,
-            len: v.len(),
+            ptr,
+            len,
             owner: Owner::Mapped(bytes),
         })
     }
@@ -165,5 +200,25 @@ mod tests {
         assert_eq!(&b[..], &small[..]);
         let empty = PagedArray::<u64>::new(Vec::new());
         assert!(empty.is_empty() && !empty.is_mapped());
+    }
+
+    /// An array filled in place holds the value it was made with, then what was written; a
+    /// large one is mapped, a small one (and an empty one) is a `Vec`, written alike.
+    #[test]
+    fn filled_in_place() {
+        for (n, mapped) in [((5 << 20) / 4 + 7, true), (1000, false), (0, false)] {
+            let mut a = PagedArray::filled(n, 7u32);
+            assert_eq!(a.len(), n);
+            assert!(a.iter().all(|&x| x == 7));
+            for (i, x) in a.as_mut_slice().iter_mut().enumerate().step_by(3) {
+                *x = i as u32;
+            }
+            assert!(
+                a.iter()
+                    .enumerate()
+                    .all(|(i, &x)| x == if i % 3 == 0 { i as u32 } else { 7 })
+            );
+            assert_eq!(a.is_mapped(), mapped && cfg!(target_os = "linux"), "{n}");
+        }
     }
 }
