@@ -59,7 +59,7 @@ impl<T: Copy> PagedArray<T> {
 
     /// `len` copies of `value`, to be filled in place ([`Self::as_mut_slice`]) before the array
     /// is shared: a large array is written straight into its huge pages, without the copy (and
-    /// the twice the memory) of [`Self::new`].
+    /// twice the memory) of [`Self::new`].
     pub fn filled(len: usize, value: T) -> PagedArray<T> {
         #[cfg(target_os = "linux")]
         if len.saturating_mul(std::mem::size_of::<T>()) >= HUGE_PAGE
