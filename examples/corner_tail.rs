@@ -80,13 +80,36 @@ fn mean_se(per_seed: &[Vec<f64>]) -> (Vec<f64>, Vec<f64>) {
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
+    let fail = |msg: String| -> ! {
+        eprintln!("error: {msg}\nusage: corner_tail [scene] [res] [seeds] [spp,spp,...]");
+        std::process::exit(2)
+    };
+    let num = |i: usize, what: &str, default: u64| -> u64 {
+        a.get(i).map_or(default, |s| {
+            s.parse()
+                .unwrap_or_else(|_| fail(format!("{what} '{s}': not a whole number")))
+        })
+    };
     let name = a.get(1).map_or("scenes/cornell-box.json", |s| s.as_str());
-    let res: usize = a.get(2).map_or(32, |s| s.parse().expect("res"));
-    let seeds: u64 = a.get(3).map_or(24, |s| s.parse().expect("seeds"));
+    let res = num(2, "res", 32) as usize;
+    let seeds = num(3, "seeds", 24);
     let levels: Vec<u32> = a.get(4).map_or(vec![16, 64, 256, 1024], |s| {
-        s.split(',').map(|x| x.parse().expect("spp")).collect()
+        s.split(',')
+            .map(|x| match x.parse() {
+                Ok(n) if n > 0 => n,
+                _ => fail(format!("spp '{x}' in '{s}': not a positive whole number")),
+            })
+            .collect()
     });
-    let mut scene = Scene::load(Path::new(name)).expect("scene");
+    if res < B || !res.is_multiple_of(B) || res > 4096 {
+        fail(format!("res {res}: a multiple of {B} from {B} to 4096"));
+    }
+    if seeds < 2 {
+        fail(format!(
+            "seeds {seeds}: at least 2 (the standard error needs two)"
+        ));
+    }
+    let mut scene = Scene::load(Path::new(name)).unwrap_or_else(|e| fail(e.to_string()));
     let c = scene.camera.clone();
     let fov = 2.0 * c.tan_half_x.atan().to_degrees();
     scene.camera = Camera::look_at(

@@ -36,8 +36,8 @@ enum Owner<T> {
     Mapped(usize),
 }
 
-// SAFETY: the array is never written after construction; it owns its memory as a `Vec` owns
-// its buffer, so it can be sent and shared as a `Vec<T>` can.
+// SAFETY: the array owns its memory as a `Vec` owns its buffer and is written only through
+// `as_mut_slice` (`&mut self`), so it can be sent and shared as a `Vec<T>` can.
 unsafe impl<T: Copy + Send> Send for PagedArray<T> {}
 // SAFETY: as above (only shared reads).
 unsafe impl<T: Copy + Sync> Sync for PagedArray<T> {}
@@ -158,7 +158,7 @@ impl<T: Copy> Deref for PagedArray<T> {
     #[inline(always)]
     fn deref(&self) -> &[T] {
         // SAFETY: `len` initialised elements at `ptr`, owned by `self.owner`, alive as long as
-        // `self` and never written after construction.
+        // `self`, written only through `as_mut_slice`, which cannot overlap this borrow.
         unsafe { std::slice::from_raw_parts(self.ptr.as_ptr(), self.len) }
     }
 }
