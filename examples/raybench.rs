@@ -4,12 +4,12 @@
 //! The BVH is built as scenes build it (`Accel::build`, quality `auto`) unless `PRESET` says
 //! otherwise: `auto`, `high` or `medium` (the scene's `accel.quality`), or one of obvhs' other
 //! presets (`fastest`, `very_fast`, `fast`, `slow`, `very_slow`), which `LEAF`, `REINS`,
-//! `NOSPLIT` and `LAYOUT=full|quantised` modify for experiments. `STOKES_ISA=avx512|avx2|portable`
+//! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments. `STOKES_ISA=avx512|avx2|portable`
 //! forces a lower instruction set than the CPU's best; the one in use is printed.
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
 
-use stokes::geometry::{Accel, BuildQuality, Ray};
+use stokes::geometry::{Accel, BuildQuality, Layout, Ray};
 
 // The allocator of the `stokes` binary (src/main.rs), so that the build times are its.
 #[global_allocator]
@@ -78,9 +78,20 @@ fn main() {
                 params.reinsertion_batch_ratio = l.parse().unwrap();
             }
             let split = std::env::var("NOSPLIT").is_err();
-            // LAYOUT=full|quantised forces the node layout (default: by size)
-            let full = std::env::var("LAYOUT").ok().map(|l| l == "full");
-            Accel::build_with_layout(&set.tris, &[], params, split, full)
+            // LAYOUT=full|quantised|tiered[:TOP_NODES] forces the node layout (default: by
+            // size)
+            let layout = match std::env::var("LAYOUT").ok().as_deref() {
+                None => Layout::Auto,
+                Some("full") => Layout::Full,
+                Some("quantised") => Layout::Quantised,
+                Some(t) if t.starts_with("tiered") => Layout::Tiered {
+                    top_nodes: t
+                        .strip_prefix("tiered:")
+                        .map_or(8192, |n| n.parse().expect("LAYOUT=tiered:TOP_NODES")),
+                },
+                Some(l) => panic!("LAYOUT: unknown layout {l}"),
+            };
+            Accel::build_with_layout(&set.tris, &[], params, split, layout)
         }
     };
     let label = accel
@@ -100,7 +111,8 @@ fn main() {
     }
     let (nodes, packets, lanes, bytes) = accel.layout();
     eprintln!(
-        "{nodes} nodes, {packets} packets ({:.0} % of lanes used), {:.1} bytes per primitive",
+        "{nodes} nodes ({}), {packets} packets ({:.0} % of lanes used), {:.1} bytes per primitive",
+        accel.node_layout(),
         100.0 * lanes as f64 / (8 * packets).max(1) as f64,
         bytes as f64 / set.tris.len() as f64
     );

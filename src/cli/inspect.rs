@@ -35,9 +35,10 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         None => "custom".to_string(),
     };
     println!(
-        "acceleration: BVH8 of quality {quality}, built in {:.3} s: {nodes} nodes, {packets} leaf \
-         packets, {:.2} MB{}",
+        "acceleration: BVH8 of quality {quality}, built in {:.3} s: {nodes} nodes ({}), {packets} \
+         leaf packets, {:.2} MB{}",
         s.accel.build_seconds(),
+        s.accel.node_layout(),
         bytes as f64 / 1e6,
         if s.accel.is_flat() {
             "; traced as one flat loop over the triangles"

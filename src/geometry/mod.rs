@@ -6,7 +6,7 @@ pub mod frame;
 pub mod ray;
 pub mod shapes;
 
-pub use bvh::{AUTO_HIGH_MAX, Accel, BuildQuality, ISA_VAR, Isa, IsaError};
+pub use bvh::{AUTO_HIGH_MAX, Accel, BuildQuality, ISA_VAR, Isa, IsaError, Layout};
 pub use camera::Camera;
 pub use frame::Frame;
 pub use ray::{Hit, Ray};

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::collapse::{Plan, collapse};
 use super::leaf::{Prim, TriBlock};
 use super::nodes::{FULL_NODES_MAX, Node8, QNode8};
-use super::{Accel, BuildQuality, Isa, Kernel, Nodes, PagedArray};
+use super::{Accel, BuildQuality, Isa, Kernel, Layout, Nodes, PagedArray};
 use crate::geometry::{Sphere, Triangle};
 
 impl Accel {
@@ -35,18 +35,17 @@ impl Accel {
         params: BvhBuildParams,
         pre_split: bool,
     ) -> Accel {
-        Self::build_with_layout(triangles, spheres, params, pre_split, None)
+        Self::build_with_layout(triangles, spheres, params, pre_split, Layout::Auto)
     }
 
-    /// [`Accel::build_with`] with the node layout forced (`full`: [`Node8`], or [`QNode8`];
-    /// `None`: by size, [`FULL_NODES_MAX`]).
+    /// [`Accel::build_with`] with the node layout forced.
     #[doc(hidden)]
     pub fn build_with_layout(
         triangles: &[Triangle],
         spheres: &[Sphere],
         params: BvhBuildParams,
         pre_split: bool,
-        full: Option<bool>,
+        layout: Layout,
     ) -> Accel {
         let start = std::time::Instant::now();
         let n_tris = triangles.len();
@@ -133,7 +132,7 @@ impl Accel {
             restore_aabbs(&mut bvh2, &true_aabbs);
         }
         let (nodes, (blocks, sphere_lanes), depth, sah) =
-            Self::wide(&bvh2, &piece_to_prim, triangles, spheres, full);
+            Self::wide(&bvh2, &piece_to_prim, triangles, spheres, layout);
         Accel {
             nodes,
             blocks,
@@ -152,14 +151,13 @@ impl Accel {
     }
 
     /// The 8-wide nodes and the leaf packets for the binary BVH over primitive pieces
-    /// (`piece_to_prim`), in the layout `full` asks for (`None`: by size), the tree's depth and
-    /// its cost in the surface-area model.
+    /// (`piece_to_prim`), in `layout`, the tree's depth and its cost in the surface-area model.
     fn wide(
         bvh2: &obvhs::bvh2::Bvh2,
         piece_to_prim: &[u32],
         triangles: &[Triangle],
         spheres: &[Sphere],
-        full: Option<bool>,
+        layout: Layout,
     ) -> (Nodes, Packets, usize, [f64; 2]) {
         let n_tris = triangles.len();
         let mixed = !spheres.is_empty();
@@ -173,36 +171,54 @@ impl Accel {
             };
             (id, p)
         };
-        let max_full = if full == Some(true) {
-            usize::MAX
-        } else {
-            FULL_NODES_MAX
-        };
         let plan = Plan::new(bvh2);
         let packets = |leaves: &[u32]| {
             let pieces = |k: usize| plan.pieces(leaves[k]);
             pack_collapsed(leaves.len(), pieces, n_tris as u32, mixed, prim)
         };
-        let collapsed = (full != Some(false))
-            .then(|| collapse::<Node8>(&plan, max_full))
-            .flatten();
-        match collapsed {
-            Some(c) => (
-                Nodes::Full(PagedArray::new(c.nodes)),
+        let max_full = match layout {
+            Layout::Auto => FULL_NODES_MAX,
+            Layout::Full => usize::MAX,
+            Layout::Quantised | Layout::Tiered { .. } => 0,
+        };
+        if max_full > 0
+            && let Some(c) = collapse::<Node8, Node8>(&plan, max_full, usize::MAX)
+        {
+            return (
+                Nodes::Full(PagedArray::new(c.top)),
                 packets(&c.leaves),
                 c.depth,
                 c.sah,
-            ),
-            None => {
-                let c = collapse::<QNode8>(&plan, usize::MAX).expect("no node limit");
-                (
-                    Nodes::Quantised(PagedArray::new(c.nodes)),
-                    packets(&c.leaves),
-                    c.depth,
-                    c.sah,
-                )
-            }
+            );
         }
+        // The levels from the root down that fit in `top_nodes` full nodes (none when all are
+        // quantised).
+        let top_nodes = match layout {
+            Layout::Tiered { top_nodes } => top_nodes,
+            Layout::Quantised => 0,
+            _ => FULL_NODES_MAX,
+        };
+        let mut total = 0;
+        let top_depth = plan
+            .levels(usize::MAX)
+            .iter()
+            .take_while(|&&n| {
+                total += n;
+                total <= top_nodes
+            })
+            .count();
+        let c = collapse::<Node8, QNode8>(&plan, usize::MAX, top_depth).expect("no node limit");
+        let nodes = if c.top.is_empty() {
+            Nodes::Quantised(PagedArray::new(c.rest))
+        } else if c.rest.is_empty() {
+            Nodes::Full(PagedArray::new(c.top))
+        } else {
+            Nodes::Tiered {
+                top: PagedArray::new(c.top),
+                rest: PagedArray::new(c.rest),
+            }
+        };
+        (nodes, packets(&c.leaves), c.depth, c.sah)
     }
 }
 

@@ -14,56 +14,101 @@ use super::nodes::Encode;
 pub(super) const LEAF_MAX: usize = 8;
 
 /// The collapsed tree: its nodes (root first; the internal children of a node are consecutive
-/// nodes, its leaves consecutive packets, both in slot order), the BVH2 node of each leaf (leaf
-/// `k` is packet `k`; [`Plan::pieces`] gives its primitives), its depth, and its cost in the
-/// surface-area model: the node visits and the packet tests of a ray through the root's box
-/// (each box's area over the root's, summed over the nodes and over the leaves).
-pub(super) struct Collapsed<N> {
-    pub nodes: Vec<N>,
+/// nodes, its leaves consecutive packets, both in slot order), the nodes down to a depth in
+/// one layout (`top`) and the deeper ones in another (`rest`, numbered after `top`'s), the BVH2
+/// node of each leaf (leaf `k` is packet `k`; [`Plan::pieces`] gives its primitives), its
+/// depth, and its cost in the surface-area model: the node visits and the packet tests of a ray
+/// through the root's box (each box's area over the root's, summed over the nodes and over the
+/// leaves).
+pub(super) struct Collapsed<T, R> {
+    pub top: Vec<T>,
+    pub rest: Vec<R>,
     pub leaves: Vec<u32>,
     pub depth: usize,
     pub sah: [f64; 2],
 }
 
-/// Collapse `bvh2` (not empty) as `plan` says; `None` once it needs more than `max_nodes`
+/// Collapse `bvh2` (not empty) as `plan` says, the nodes down to depth `top_depth` (the root's
+/// is 1) as `T`s and the deeper ones as `R`s; `None` once it needs more than `max_nodes`
 /// nodes.
-pub(super) fn collapse<N: Encode>(plan: &Plan, max_nodes: usize) -> Option<Collapsed<N>> {
+pub(super) fn collapse<T: Encode, R: Encode>(
+    plan: &Plan,
+    max_nodes: usize,
+    top_depth: usize,
+) -> Option<Collapsed<T, R>> {
     let bvh2 = plan.bvh2;
     let b = &bvh2.nodes;
+    // the nodes down to `top_depth` are numbered first
+    let n_top = if top_depth == usize::MAX {
+        usize::MAX
+    } else {
+        plan.levels(top_depth).iter().sum()
+    };
     let mut out = Collapsed {
-        nodes: vec![N::new(b[0].aabb())],
+        top: Vec::new(),
+        rest: Vec::new(),
         leaves: Vec::new(),
         depth: 1,
         sah: [1.0, 0.0],
     };
+    // a new node at `depth`: its number
+    let push = |out: &mut Collapsed<T, R>, aabb: &Aabb, depth: usize| {
+        if depth <= top_depth {
+            out.top.push(T::new(aabb));
+            out.top.len() - 1
+        } else {
+            out.rest.push(R::new(aabb));
+            n_top + out.rest.len() - 1
+        }
+    };
+    // node `i`, to write its slots
+    fn at<T: Encode, R: Encode>(
+        out: &mut Collapsed<T, R>,
+        n_top: usize,
+        i: usize,
+    ) -> &mut dyn Encode {
+        if i < n_top {
+            &mut out.top[i]
+        } else {
+            &mut out.rest[i - n_top]
+        }
+    }
+    push(&mut out, b[0].aabb(), 1);
     let root = b[0].aabb().half_area() as f64;
-    // (BVH2 node, its Node8, depth)
+    // (BVH2 node, its number, depth)
     let mut todo = vec![(0usize, 0usize, 1usize)];
     let mut kids = Vec::with_capacity(8);
-    while let Some((n, at, depth)) = todo.pop() {
+    while let Some((n, node, depth)) = todo.pop() {
         out.depth = out.depth.max(depth);
         kids.clear();
         plan.slots(n, &mut kids);
-        let (first_child, first_packet) = (out.nodes.len() as u32, out.leaves.len() as u32);
-        out.nodes[at].bases(first_child, first_packet);
+        let first_packet = out.leaves.len() as u32;
+        // the children are numbered consecutively in their layout: from the next free number
+        let first_child = if depth < top_depth {
+            out.top.len()
+        } else {
+            n_top.saturating_add(out.rest.len())
+        };
+        at(&mut out, n_top, node).bases(first_child as u32, first_packet);
         for (slot, &k) in kids.iter().enumerate() {
             let aabb: &Aabb = b[k].aabb();
             let leaf = plan.is_leaf(k);
             out.sah[leaf as usize] += aabb.half_area() as f64 / root;
             if leaf {
-                out.nodes[at].set_leaf(slot, aabb, out.leaves.len() as u32);
+                let packet = out.leaves.len() as u32;
+                at(&mut out, n_top, node).set_leaf(slot, aabb, packet);
                 out.leaves.push(k as u32);
             } else {
-                let child = out.nodes.len();
-                if child >= max_nodes {
+                if out.top.len() + out.rest.len() >= max_nodes {
                     return None;
                 }
-                out.nodes.push(N::new(aabb));
-                out.nodes[at].set_inner(slot, aabb, child as u32);
+                let child = push(&mut out, aabb, depth + 1);
+                at(&mut out, n_top, node).set_inner(slot, aabb, child as u32);
                 todo.push((k, child, depth + 1));
             }
         }
     }
+    debug_assert!(top_depth == usize::MAX || out.top.len() == n_top);
     Some(out)
 }
 
@@ -200,6 +245,24 @@ impl<'a> Plan<'a> {
     pub(super) fn pieces(&self, n: u32) -> &[u32] {
         let [first, count] = self.span[n as usize];
         &self.pieces[first as usize..(first + count) as usize]
+    }
+
+    /// The number of nodes of the collapsed tree at each depth from 1 (the root) to at most
+    /// `max_depth`.
+    pub(super) fn levels(&self, max_depth: usize) -> Vec<usize> {
+        let mut counts = Vec::new();
+        let (mut level, mut next, mut kids) = (vec![0usize], Vec::new(), Vec::new());
+        while !level.is_empty() && counts.len() < max_depth {
+            counts.push(level.len());
+            next.clear();
+            for &n in &level {
+                kids.clear();
+                self.slots(n, &mut kids);
+                next.extend(kids.iter().filter(|&&k| !self.is_leaf(k)));
+            }
+            std::mem::swap(&mut level, &mut next);
+        }
+        counts
     }
 
     /// The slots of the 8-wide node for subtree `n` (a leaf only at the root: one slot).

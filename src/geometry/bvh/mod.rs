@@ -8,10 +8,12 @@
 //!
 //! Nodes ([`nodes`]): the binary BVH is collapsed ([`collapse`]) to 8-wide nodes with leaves of
 //! up to 8 primitives, one packet each. While that takes at most [`nodes::FULL_NODES_MAX`] nodes
-//! they keep the child boxes in full precision ([`nodes::Node8`], 256 bytes, no decoding per
-//! visit); larger trees quantise them to 8 bits per plane ([`nodes::QNode8`], 80 bytes), whose
-//! smaller footprint pays once the nodes no longer fit in the caches. Both give the same hits
-//! (up to ties between coincident primitives, which they may meet in another order).
+//! (2 MiB) they keep the child boxes in full precision ([`nodes::Node8`], 256 bytes, no decoding
+//! per visit). Larger trees are tiered: their top levels, as many as fit in those 2 MiB, stay
+//! in full precision (they are visited by every ray and stay cached), the deeper nodes are
+//! quantised to 8 bits per plane ([`nodes::QNode8`], 80 bytes), whose smaller footprint pays
+//! once the nodes no longer fit in the caches. All layouts give the same hits (up to ties
+//! between coincident primitives, which they may meet in another order).
 //!
 //! Traversal: a visit returns the hit internal slots and the hit leaves; internal children go
 //! onto the stack with one left-pack, ordered far to near, and the nearest is visited next.
@@ -103,6 +105,23 @@ pub enum BuildQuality {
     High,
 }
 
+/// The node layout of a build ([`Accel::build_with_layout`], for tests and profiling; scenes
+/// take `Auto`).
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// Full precision up to [`nodes::FULL_NODES_MAX`] nodes, else tiered with that many full
+    /// nodes at most.
+    Auto,
+    /// Every node in full precision.
+    Full,
+    /// Every node quantised.
+    Quantised,
+    /// The top levels in full precision, as many as fit in `top_nodes` nodes, the rest
+    /// quantised.
+    Tiered { top_nodes: usize },
+}
+
 /// Largest scene (triangles and spheres) that [`BuildQuality::Auto`] builds with `High`: about
 /// a second of build at this size (0.2–0.3 s for 100 000 triangles, 1.3–1.9 s for 300 000 on
 /// the machine of docs/performance.md).
@@ -139,11 +158,16 @@ impl BuildQuality {
 /// Stack size for the on-stack traversal stack; deeper BVHs use a heap stack.
 const STACK: usize = 192;
 
-/// The BVH's nodes in one of the two layouts of [`nodes`]: full precision while they fit in
-/// the caches, quantised beyond.
+/// The BVH's nodes in the layouts of [`nodes`]: full precision while they fit in the caches;
+/// beyond, the top levels in full precision (the nodes every ray visits, which stay cached and
+/// need no decoding) and the rest quantised, numbered top first.
 enum Nodes {
     Full(PagedArray<Node8>),
     Quantised(PagedArray<QNode8>),
+    Tiered {
+        top: PagedArray<Node8>,
+        rest: PagedArray<QNode8>,
+    },
 }
 
 impl Nodes {
@@ -151,6 +175,7 @@ impl Nodes {
         match self {
             Nodes::Full(n) => n.len(),
             Nodes::Quantised(n) => n.len(),
+            Nodes::Tiered { top, rest } => top.len() + rest.len(),
         }
     }
 
@@ -162,6 +187,9 @@ impl Nodes {
         match self {
             Nodes::Full(n) => std::mem::size_of_val(&n[..]),
             Nodes::Quantised(n) => std::mem::size_of_val(&n[..]),
+            Nodes::Tiered { top, rest } => {
+                std::mem::size_of_val(&top[..]) + std::mem::size_of_val(&rest[..])
+            }
         }
     }
 }
@@ -283,10 +311,31 @@ impl Accel {
         match &self.nodes {
             Nodes::Full(n) => n.hash(&mut h),
             Nodes::Quantised(n) => n.hash(&mut h),
+            Nodes::Tiered { top, rest } => {
+                top.hash(&mut h);
+                rest.hash(&mut h);
+            }
         }
         self.blocks.hash(&mut h);
         self.sphere_lanes.hash(&mut h);
         h.finish()
+    }
+
+    /// The node layout in words: `full precision`, `quantised`, or `tiered: N in full precision,
+    /// M quantised`.
+    #[doc(hidden)]
+    pub fn node_layout(&self) -> String {
+        match &self.nodes {
+            Nodes::Full(_) => "full precision".into(),
+            Nodes::Quantised(_) => "quantised".into(),
+            Nodes::Tiered { top, rest } => {
+                format!(
+                    "tiered: {} in full precision, {} quantised",
+                    top.len(),
+                    rest.len()
+                )
+            }
+        }
     }
 
     /// Sizes for profiling: (nodes, packets, lanes in use, bytes of nodes + packets + ids).

@@ -5,7 +5,9 @@
 //! leaves (one packet each), without a branch per child where AVX2 is used.
 //!
 //! The full layout needs no decoding; the quantised one touches a third of the memory, which
-//! pays once the nodes no longer fit in the caches ([`FULL_NODES_MAX`]).
+//! pays once the nodes no longer fit in the caches ([`FULL_NODES_MAX`]). Larger trees take both
+//! (`Nodes::Tiered`): full nodes for their top levels, which every ray visits and which stay
+//! cached, quantised ones below.
 
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
@@ -18,11 +20,13 @@ use crate::geometry::Ray;
 /// Bytes of one leaf packet (`TriBlock`).
 pub(super) const PACKET_BYTES: usize = 320;
 
-/// Largest BVH (in nodes) traced with [`Node8`]: 2 MiB of full nodes; larger ones are
-/// quantised. Measured (medians of paired rounds, the quantised layout's speed over the full
-/// one's; docs/performance.md, section 1): soup100k (3 463 nodes) 0.92×, the 300k-triangle sets
-/// (10 300–11 000 nodes) 1.01–1.03×, the 600k sets (20 400–20 500) 1.10–1.11×, the 1M sets
-/// (34 000–44 000) 1.14–1.21×.
+/// Largest BVH (in nodes) traced with [`Node8`] alone: 2 MiB of full nodes. Measured (medians
+/// of paired rounds, the quantised layout's speed over the full one's; docs/performance.md,
+/// section 1): soup100k (3 463 nodes) 0.92×, the 300k-triangle sets (10 300–11 000 nodes)
+/// 1.01–1.03×, the 600k sets (20 400–20 500) 1.10–1.11×, the 1M sets (34 000–44 000)
+/// 1.14–1.21×. Larger trees keep as many of their top levels in full nodes as fit in the same
+/// 2 MiB, the rest quantised: the 1M sets 1.03–1.10× as fast as all quantised (section 1,
+/// "Tiered nodes").
 pub(super) const FULL_NODES_MAX: usize = (2 << 20) / std::mem::size_of::<Node8>();
 
 /// Traversal ray: origin, direction, clamped reciprocal direction.
@@ -152,7 +156,9 @@ pub(super) trait WideNode {
 /// A node layout [`super::collapse`] can write.
 pub(super) trait Encode {
     /// A node without children, whose children all lie in `aabb`.
-    fn new(aabb: &Aabb) -> Self;
+    fn new(aabb: &Aabb) -> Self
+    where
+        Self: Sized;
     /// The node's first internal child and first leaf packet (children and packets are
     /// consecutive, in slot order), before its slots are set.
     fn bases(&mut self, child: u32, packet: u32);

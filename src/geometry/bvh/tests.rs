@@ -60,13 +60,15 @@ fn check_quality(q: BuildQuality, tris: &[Triangle], spheres: &[Sphere], n_rays:
     // Both node layouts, on every instruction set this CPU has, must agree with the default
     // build and layout (the best instruction set: the flat loop of tiny scenes with AVX2 or
     // AVX-512).
-    let layout = |full: bool| {
+    let layout = |layout: Layout| {
         // the default build's parameters, so that ties among coincident primitives break
         // alike
         let params = q.params(tris.len() + spheres.len());
-        Accel::build_with_layout(tris, spheres, params, true, Some(full))
+        Accel::build_with_layout(tris, spheres, params, true, layout)
     };
-    let (mut quantised, mut full) = (layout(false), layout(true));
+    let (mut quantised, mut full) = (layout(Layout::Quantised), layout(Layout::Full));
+    // the root and its children in full precision, the rest quantised
+    let mut tiered = layout(Layout::Tiered { top_nodes: 9 });
     let isas = Isa::available();
     assert!(isas.contains(&Isa::Portable) && isas.contains(&accel.isa()));
     let mut hits = 0;
@@ -137,10 +139,13 @@ fn check_quality(q: BuildQuality, tris: &[Triangle], spheres: &[Sphere], n_rays:
         quantised.set_isa(Isa::best()).unwrap();
         let q_best = quantised.intersect(&ray, t_max);
         verify(q_best, "quantised nodes");
+        tiered.set_isa(Isa::best()).unwrap();
+        let t_best = tiered.intersect(&ray, t_max);
+        verify(t_best, "tiered nodes");
         // every other instruction set takes the best one's path exactly
         let key = |h: Option<Hit>| h.map(|h| (h.t, h.prim, h.u, h.v));
         for &isa in &isas {
-            for a in [&mut accel, &mut quantised, &mut full] {
+            for a in [&mut accel, &mut quantised, &mut full, &mut tiered] {
                 a.set_isa(isa).unwrap();
             }
             assert_eq!(
@@ -155,7 +160,9 @@ fn check_quality(q: BuildQuality, tris: &[Triangle], spheres: &[Sphere], n_rays:
             );
             let q = quantised.intersect(&ray, t_max);
             assert_eq!(key(q), key(q_best), "ray {k} ({isa}, quantised)");
-            for (j, a) in [&accel, &quantised, &full].into_iter().enumerate() {
+            let t = tiered.intersect(&ray, t_max);
+            assert_eq!(key(t), key(t_best), "ray {k} ({isa}, tiered)");
+            for (j, a) in [&accel, &quantised, &full, &tiered].into_iter().enumerate() {
                 assert_eq!(
                     a.occluded(&ray, t_max),
                     bf.is_some(),
@@ -254,7 +261,7 @@ fn collapse_is_surface_area_optimal() {
             p.search_depth_threshold,
         );
         let plan = Plan::new(&bvh2);
-        let c = collapse::<Node8>(&plan, usize::MAX).expect("no node limit");
+        let c = collapse::<Node8, Node8>(&plan, usize::MAX, usize::MAX).expect("no node limit");
         let mut seen = vec![0u32; n];
         for &leaf in &c.leaves {
             let pieces = plan.pieces(leaf);
@@ -307,7 +314,7 @@ fn collapse_with_overflowing_costs_keeps_leaves_in_packets() {
         p.search_depth_threshold,
     );
     let plan = Plan::new(&bvh2);
-    let c = collapse::<Node8>(&plan, usize::MAX).expect("no node limit");
+    let c = collapse::<Node8, Node8>(&plan, usize::MAX, usize::MAX).expect("no node limit");
     let lens: Vec<usize> = c.leaves.iter().map(|&l| plan.pieces(l).len()).collect();
     assert_eq!(lens.iter().sum::<usize>(), 500);
     assert!(lens.iter().all(|l| (1..=8).contains(l)));
@@ -404,7 +411,8 @@ fn deep_tree_without_spheres() {
     let params = BvhBuildParams::medium_build();
     let accels = [
         Accel::build(&tris, &[]),
-        Accel::build_with_layout(&tris, &[], params, true, Some(false)),
+        Accel::build_with_layout(&tris, &[], params, true, Layout::Quantised),
+        Accel::build_with_layout(&tris, &[], params, true, Layout::Tiered { top_nodes: 20 }),
     ];
     for a in &accels {
         assert!(a.stack_size > STACK, "depth {}", a.stack_size / 7);
@@ -521,4 +529,34 @@ fn instruction_set_names_and_errors() {
         e.contains("does not support avx512") && e.contains("portable"),
         "{e}"
     );
+}
+
+/// A tiered tree keeps its top levels (here the root and its children) in full precision and
+/// the rest quantised, numbered top first, and traces as brute force does (`check` traces
+/// every layout).
+#[test]
+fn tiered_layout_splits_at_a_level() {
+    let mut rng = Pcg64::seed_from_u64(21);
+    let (tris, _) = scene(&mut rng, 3000, 0);
+    let params = BuildQuality::Medium.params(tris.len());
+    let a = Accel::build_with_layout(&tris, &[], params, true, Layout::Tiered { top_nodes: 9 });
+    let Nodes::Tiered { top, rest } = &a.nodes else {
+        panic!("not tiered");
+    };
+    // the root and its internal children (at most 8), every other node quantised
+    assert!((2..=9).contains(&top.len()), "{} top nodes", top.len());
+    assert!(rest.len() > top.len(), "{} quantised nodes", rest.len());
+    let all = Accel::build_with_layout(&tris, &[], params, true, Layout::Quantised);
+    assert_eq!(top.len() + rest.len(), all.nodes.len());
+    assert_eq!(a.blocks.len(), all.blocks.len());
+    // the tiers by depth: a budget below the root's level quantises everything, one that
+    // holds the whole tree keeps it in full precision
+    let none = Accel::build_with_layout(&tris, &[], params, true, Layout::Tiered { top_nodes: 0 });
+    assert!(matches!(none.nodes, Nodes::Quantised(_)));
+    let every = Layout::Tiered {
+        top_nodes: usize::MAX,
+    };
+    let every = Accel::build_with_layout(&tris, &[], params, true, every);
+    assert!(matches!(every.nodes, Nodes::Full(_)));
+    check_quality(BuildQuality::Medium, &tris, &[], 3000, 22);
 }

@@ -75,31 +75,52 @@ impl Accel {
     #[inline(always)]
     fn intersect_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         match &self.nodes {
-            Nodes::Full(n) => self.intersect_stack::<Node8, ISA>(n, ray, t_max),
-            Nodes::Quantised(n) => self.intersect_stack::<QNode8, ISA>(n, ray, t_max),
+            Nodes::Full(n) => self.intersect_stack::<Node8, Node8, false, ISA>(n, &[], ray, t_max),
+            Nodes::Quantised(n) => {
+                self.intersect_stack::<QNode8, QNode8, false, ISA>(n, &[], ray, t_max)
+            }
+            Nodes::Tiered { top, rest } => {
+                self.intersect_stack::<Node8, QNode8, true, ISA>(top, rest, ray, t_max)
+            }
         }
     }
 
+    /// `top` and `rest`: the nodes of the tree, numbered in that order (`rest` empty when not
+    /// `TIERED`).
     #[inline(always)]
-    fn intersect_stack<N: WideNode, const ISA: u8>(
+    fn intersect_stack<A: WideNode, B: WideNode, const TIERED: bool, const ISA: u8>(
         &self,
-        nodes: &[N],
+        top: &[A],
+        rest: &[B],
         ray: &Ray,
         t_max: f32,
     ) -> Option<Hit> {
-        // Each call of a traversal loop passes its own `SITE` (`WideNode::visit`: the node visits
-        // are inlined only when each copy has a single caller).
+        let tree = Tree::<A, B, TIERED>::new(top, rest);
+        // Each call of a traversal loop passes its own `SITE`, 0-2 (6-8 tiered) (`WideNode::visit`:
+        // the node visits are inlined only when each copy has a single caller).
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<Entry>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.intersect_impl::<N, false, ISA, 0>(nodes, ray, t_max, &mut stack)
+                if TIERED {
+                    self.intersect_impl::<A, B, TIERED, false, ISA, 6>(tree, ray, t_max, &mut stack)
+                } else {
+                    self.intersect_impl::<A, B, TIERED, false, ISA, 0>(tree, ray, t_max, &mut stack)
+                }
             } else {
-                self.intersect_impl::<N, true, ISA, 1>(nodes, ray, t_max, &mut stack)
+                if TIERED {
+                    self.intersect_impl::<A, B, TIERED, true, ISA, 7>(tree, ray, t_max, &mut stack)
+                } else {
+                    self.intersect_impl::<A, B, TIERED, true, ISA, 1>(tree, ray, t_max, &mut stack)
+                }
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<Entry>::uninit(); self.stack_size];
-            self.intersect_impl::<N, true, ISA, 2>(nodes, ray, t_max, &mut stack)
+            if TIERED {
+                self.intersect_impl::<A, B, TIERED, true, ISA, 8>(tree, ray, t_max, &mut stack)
+            } else {
+                self.intersect_impl::<A, B, TIERED, true, ISA, 2>(tree, ray, t_max, &mut stack)
+            }
         }
     }
 
@@ -107,103 +128,152 @@ impl Accel {
     /// children are visited nearest first (sorted by entry distance), and popped entries farther
     /// than the current hit are skipped.
     #[inline(always)]
-    fn intersect_impl<N: WideNode, const MIXED: bool, const ISA: u8, const SITE: u8>(
+    fn intersect_impl<
+        A: WideNode,
+        B: WideNode,
+        const TIERED: bool,
+        const MIXED: bool,
+        const ISA: u8,
+        const SITE: u8,
+    >(
         &self,
-        nodes: &[N],
+        tree: Tree<A, B, TIERED>,
         ray: &Ray,
         t_max: f32,
         stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
-        let r = TRay::new(ray);
-        let mut t_best = t_max;
-        let mut lane_best = u32::MAX;
-        let (mut u_best, mut v_best) = (0.0, 0.0);
-        let mut sp = 0usize;
+        let mut st = Closest {
+            r: TRay::new(ray),
+            t_best: t_max,
+            lane_best: u32::MAX,
+            u_best: 0.0,
+            v_best: 0.0,
+            sp: 0,
+            tmins: [0.0; 8],
+            tuv: [[0.0; 8]; 3],
+            stack,
+        };
         let mut cur = 0u32;
-        let mut tmins = [0.0f32; 8];
-        let mut tuv = [[0.0f32; 8]; 3];
         loop {
-            // SAFETY: child indices produced by the collapse are in bounds.
-            let node = unsafe { nodes.get_unchecked(cur as usize) };
-            #[cfg(feature = "bvh-stats")]
-            stats::count(0, 1);
-            // The node's first packet is needed whenever a leaf child is hit: fetch it while the
-            // boxes are tested (nodes without leaves point at packet 0, without a branch).
-            node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
-            // Every hit child has its entry distance <= t_best.
-            let Visit {
-                inner: inner_hits,
-                leaves,
-            } = node.visit::<ISA, SITE>(&r, t_best, &mut tmins);
-            // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
-            // load while the leaves are tested.
-            let n_inner = inner_hits.count_ones() as usize;
-            if n_inner > 0 {
-                node.write_inner::<ISA>(inner_hits, &tmins, &mut stack[sp..sp + 8]);
-                // the first two (all 8 entries are written; a prefetch never faults)
-                for k in 0..2 {
-                    // SAFETY: written just above.
-                    let e = unsafe { stack[sp + k].assume_init() };
-                    prefetch(nodes.as_ptr().wrapping_add(e.node as usize), N::LINES);
-                }
-            }
-            // Leaves first (they can shrink t_best before the inner children are ordered): all
-            // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
-            // lowest lane on ties.
-            if leaves != 0 {
-                node.leaf_packets(leaves, |b, lanes| {
-                    #[cfg(feature = "bvh-stats")]
-                    stats::count(1, lanes.count_ones() as u64);
-                    let h = self.test_block::<MIXED, ISA>(b, lanes, &r, t_best, &mut tuv);
-                    if h != 0 {
-                        // every hit is nearer than t_best; one hit is the common case
-                        let l = if h & (h - 1) == 0 {
-                            h.trailing_zeros() as usize
-                        } else {
-                            nearest_lane(h, &tuv[0])
-                        };
-                        t_best = tuv[0][l];
-                        lane_best = (b * 8 + l) as u32;
-                        u_best = tuv[1][l];
-                        v_best = tuv[2][l];
-                    }
-                    false
-                });
-            }
-            // The inner children ordered far to near (stable), and the nearest taken off again to
-            // descend into directly. Entries the leaves have put beyond t_best stay and are
-            // skipped when popped.
-            if n_inner > 0 {
-                // SAFETY: the `n_inner` entries from `sp` on were written above.
-                let top = unsafe {
-                    let s = &mut *(&mut stack[sp..sp + n_inner] as *mut [MaybeUninit<Entry>]
-                        as *mut [Entry]);
-                    sort_far_to_near(s);
-                    s[n_inner - 1]
-                };
-                if top.t <= t_best {
-                    sp += n_inner - 1;
-                    cur = top.node;
-                    continue;
-                }
-            }
-            // Pop the nearest pending entry still in range.
-            loop {
-                if sp == 0 {
-                    return (lane_best != u32::MAX).then(|| Hit {
-                        t: t_best,
-                        prim: self.blocks[lane_best as usize / 8].ids[lane_best as usize % 8],
-                        u: u_best,
-                        v: v_best,
+            let next = if tree.in_top(cur) {
+                // SAFETY: child indices produced by the collapse are in bounds.
+                self.closest_step::<A, A, B, TIERED, MIXED, ISA, SITE>(
+                    unsafe { tree.top(cur) },
+                    &mut st,
+                    tree,
+                )
+            } else {
+                // SAFETY: as above; indices from `top.len()` on are `rest`'s.
+                self.closest_step::<B, A, B, TIERED, MIXED, ISA, SITE>(
+                    unsafe { tree.rest(cur) },
+                    &mut st,
+                    tree,
+                )
+            };
+            match next {
+                Some(n) => cur = n,
+                None => {
+                    return (st.lane_best != u32::MAX).then(|| Hit {
+                        t: st.t_best,
+                        prim: self.blocks[st.lane_best as usize / 8].ids[st.lane_best as usize % 8],
+                        u: st.u_best,
+                        v: st.v_best,
                     });
                 }
-                sp -= 1;
-                // SAFETY: entries below `sp` have been written.
-                let e = unsafe { stack[sp].assume_init() };
-                if e.t <= t_best {
-                    cur = e.node;
-                    break;
+            }
+        }
+    }
+
+    /// One node of [`Self::intersect_impl`]: visit `node`, test its hit leaves, push its hit
+    /// internal children; the next node to visit, or `None` when the stack is empty.
+    #[inline(always)]
+    fn closest_step<
+        N: WideNode,
+        A: WideNode,
+        B: WideNode,
+        const TIERED: bool,
+        const MIXED: bool,
+        const ISA: u8,
+        const SITE: u8,
+    >(
+        &self,
+        node: &N,
+        st: &mut Closest,
+        tree: Tree<A, B, TIERED>,
+    ) -> Option<u32> {
+        #[cfg(feature = "bvh-stats")]
+        stats::count(0, 1);
+        let blocks = self.blocks.as_ptr() as *const u8;
+        // The node's first packet is needed whenever a leaf child is hit: fetch it while the
+        // boxes are tested (nodes without leaves point at packet 0, without a branch).
+        node.prefetch_leaves(blocks);
+        // Every hit child has its entry distance <= t_best.
+        let Visit {
+            inner: inner_hits,
+            leaves,
+        } = node.visit::<ISA, SITE>(&st.r, st.t_best, &mut st.tmins);
+        // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
+        // load while the leaves are tested.
+        let sp = st.sp;
+        let n_inner = inner_hits.count_ones() as usize;
+        if n_inner > 0 {
+            node.write_inner::<ISA>(inner_hits, &st.tmins, &mut st.stack[sp..sp + 8]);
+            // the first two (all 8 entries are written; a prefetch never faults)
+            for k in 0..2 {
+                // SAFETY: written just above.
+                let e = unsafe { st.stack[sp + k].assume_init() };
+                tree.prefetch::<N>(e.node);
+            }
+        }
+        // Leaves first (they can shrink t_best before the inner children are ordered): all
+        // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
+        // lowest lane on ties.
+        if leaves != 0 {
+            node.leaf_packets(leaves, |b, lanes| {
+                #[cfg(feature = "bvh-stats")]
+                stats::count(1, lanes.count_ones() as u64);
+                let h = self.test_block::<MIXED, ISA>(b, lanes, &st.r, st.t_best, &mut st.tuv);
+                if h != 0 {
+                    // every hit is nearer than t_best; one hit is the common case
+                    let l = if h & (h - 1) == 0 {
+                        h.trailing_zeros() as usize
+                    } else {
+                        nearest_lane(h, &st.tuv[0])
+                    };
+                    st.t_best = st.tuv[0][l];
+                    st.lane_best = (b * 8 + l) as u32;
+                    st.u_best = st.tuv[1][l];
+                    st.v_best = st.tuv[2][l];
                 }
+                false
+            });
+        }
+        // The inner children ordered far to near (stable), and the nearest taken off again to
+        // descend into directly. Entries the leaves have put beyond t_best stay and are
+        // skipped when popped.
+        if n_inner > 0 {
+            // SAFETY: the `n_inner` entries from `sp` on were written above.
+            let top = unsafe {
+                let s = &mut *(&mut st.stack[sp..sp + n_inner] as *mut [MaybeUninit<Entry>]
+                    as *mut [Entry]);
+                sort_far_to_near(s);
+                s[n_inner - 1]
+            };
+            if top.t <= st.t_best {
+                st.sp = sp + n_inner - 1;
+                return Some(top.node);
+            }
+        }
+        // Pop the nearest pending entry still in range.
+        loop {
+            if st.sp == 0 {
+                return None;
+            }
+            st.sp -= 1;
+            // SAFETY: entries below `sp` have been written.
+            let e = unsafe { st.stack[st.sp].assume_init() };
+            if e.t <= st.t_best {
+                return Some(e.node);
             }
         }
     }
@@ -232,73 +302,238 @@ impl Accel {
     #[inline(always)]
     fn occluded_dispatch<const ISA: u8>(&self, ray: &Ray, t_max: f32) -> bool {
         match &self.nodes {
-            Nodes::Full(n) => self.occluded_stack::<Node8, ISA>(n, ray, t_max),
-            Nodes::Quantised(n) => self.occluded_stack::<QNode8, ISA>(n, ray, t_max),
+            Nodes::Full(n) => self.occluded_stack::<Node8, Node8, false, ISA>(n, &[], ray, t_max),
+            Nodes::Quantised(n) => {
+                self.occluded_stack::<QNode8, QNode8, false, ISA>(n, &[], ray, t_max)
+            }
+            Nodes::Tiered { top, rest } => {
+                self.occluded_stack::<Node8, QNode8, true, ISA>(top, rest, ray, t_max)
+            }
         }
     }
 
     #[inline(always)]
-    fn occluded_stack<N: WideNode, const ISA: u8>(
+    fn occluded_stack<A: WideNode, B: WideNode, const TIERED: bool, const ISA: u8>(
         &self,
-        nodes: &[N],
+        top: &[A],
+        rest: &[B],
         ray: &Ray,
         t_max: f32,
     ) -> bool {
-        // `SITE` 3-5: see `intersect_stack`.
+        let tree = Tree::<A, B, TIERED>::new(top, rest);
+        // `SITE` 3-5 (9-11 tiered): see `intersect_stack`.
         if self.stack_size <= STACK {
             let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
             if self.n_spheres == 0 {
-                self.occluded_impl::<N, false, ISA, 3>(nodes, ray, t_max, &mut stack)
+                if TIERED {
+                    self.occluded_impl::<A, B, TIERED, false, ISA, 9>(tree, ray, t_max, &mut stack)
+                } else {
+                    self.occluded_impl::<A, B, TIERED, false, ISA, 3>(tree, ray, t_max, &mut stack)
+                }
             } else {
-                self.occluded_impl::<N, true, ISA, 4>(nodes, ray, t_max, &mut stack)
+                if TIERED {
+                    self.occluded_impl::<A, B, TIERED, true, ISA, 10>(tree, ray, t_max, &mut stack)
+                } else {
+                    self.occluded_impl::<A, B, TIERED, true, ISA, 4>(tree, ray, t_max, &mut stack)
+                }
             }
         } else {
             // rare: one instantiation, the general one (spheres or not), for deep trees
             let mut stack = vec![MaybeUninit::<u32>::uninit(); self.stack_size];
-            self.occluded_impl::<N, true, ISA, 5>(nodes, ray, t_max, &mut stack)
+            if TIERED {
+                self.occluded_impl::<A, B, TIERED, true, ISA, 11>(tree, ray, t_max, &mut stack)
+            } else {
+                self.occluded_impl::<A, B, TIERED, true, ISA, 5>(tree, ray, t_max, &mut stack)
+            }
         }
     }
 
     /// Any-hit traversal: no ordering, exit on the first hit.
     #[inline(always)]
-    fn occluded_impl<N: WideNode, const MIXED: bool, const ISA: u8, const SITE: u8>(
+    fn occluded_impl<
+        A: WideNode,
+        B: WideNode,
+        const TIERED: bool,
+        const MIXED: bool,
+        const ISA: u8,
+        const SITE: u8,
+    >(
         &self,
-        nodes: &[N],
+        tree: Tree<A, B, TIERED>,
         ray: &Ray,
         t_max: f32,
         stack: &mut [MaybeUninit<u32>],
     ) -> bool {
-        let r = TRay::new(ray);
-        let mut sp = 0usize;
+        let mut st = AnyHit {
+            r: TRay::new(ray),
+            t_max,
+            sp: 0,
+            tmins: [0.0; 8],
+            tuv: [[0.0; 8]; 3],
+            stack,
+        };
         let mut cur = 0u32;
-        let mut tmins = [0.0f32; 8];
-        let mut tuv = [[0.0f32; 8]; 3];
         loop {
-            // SAFETY: see `intersect_impl`.
-            let node = unsafe { nodes.get_unchecked(cur as usize) };
-            node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
-            let Visit { inner, leaves } = node.visit::<ISA, SITE>(&r, t_max, &mut tmins);
-            // inner children on the stack in slot order; the last one is visited next
-            let mut m = inner;
-            for k in 0..inner.count_ones() as usize {
-                let child = node.inner_child(m.trailing_zeros() as usize);
-                m &= m - 1;
-                prefetch(nodes.as_ptr().wrapping_add(child as usize), N::LINES);
-                stack[sp + k] = MaybeUninit::new(child);
-            }
-            sp += inner.count_ones() as usize;
-            let hit = |b: usize, lanes: u32| {
-                self.test_block::<MIXED, ISA>(b, lanes, &r, t_max, &mut tuv) != 0
+            let next = if tree.in_top(cur) {
+                // SAFETY: see `intersect_impl`.
+                self.occluded_step::<A, A, B, TIERED, MIXED, ISA, SITE>(
+                    unsafe { tree.top(cur) },
+                    &mut st,
+                    tree,
+                )
+            } else {
+                // SAFETY: see `intersect_impl`.
+                self.occluded_step::<B, A, B, TIERED, MIXED, ISA, SITE>(
+                    unsafe { tree.rest(cur) },
+                    &mut st,
+                    tree,
+                )
             };
-            if leaves != 0 && node.leaf_packets(leaves, hit) {
-                return true;
+            match next {
+                Step::Next(n) => cur = n,
+                Step::Hit => return true,
+                Step::Done => return false,
             }
-            if sp == 0 {
-                return false;
-            }
-            sp -= 1;
-            // SAFETY: entries below `sp` have been written.
-            cur = unsafe { stack[sp].assume_init() };
+        }
+    }
+
+    /// One node of [`Self::occluded_impl`].
+    #[inline(always)]
+    fn occluded_step<
+        N: WideNode,
+        A: WideNode,
+        B: WideNode,
+        const TIERED: bool,
+        const MIXED: bool,
+        const ISA: u8,
+        const SITE: u8,
+    >(
+        &self,
+        node: &N,
+        st: &mut AnyHit,
+        tree: Tree<A, B, TIERED>,
+    ) -> Step {
+        node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
+        let Visit { inner, leaves } = node.visit::<ISA, SITE>(&st.r, st.t_max, &mut st.tmins);
+        // inner children on the stack in slot order; the last one is visited next
+        let mut m = inner;
+        for k in 0..inner.count_ones() as usize {
+            let child = node.inner_child(m.trailing_zeros() as usize);
+            m &= m - 1;
+            tree.prefetch::<N>(child);
+            st.stack[st.sp + k] = MaybeUninit::new(child);
+        }
+        st.sp += inner.count_ones() as usize;
+        let (r, t_max, tuv) = (&st.r, st.t_max, &mut st.tuv);
+        let hit =
+            |b: usize, lanes: u32| self.test_block::<MIXED, ISA>(b, lanes, r, t_max, tuv) != 0;
+        if leaves != 0 && node.leaf_packets(leaves, hit) {
+            return Step::Hit;
+        }
+        if st.sp == 0 {
+            return Step::Done;
+        }
+        st.sp -= 1;
+        // SAFETY: entries below `sp` have been written.
+        Step::Next(unsafe { st.stack[st.sp].assume_init() })
+    }
+}
+
+/// The state of a closest-hit traversal ([`Accel::intersect_impl`]).
+struct Closest<'a> {
+    r: TRay,
+    t_best: f32,
+    lane_best: u32,
+    u_best: f32,
+    v_best: f32,
+    sp: usize,
+    tmins: [f32; 8],
+    tuv: [[f32; 8]; 3],
+    stack: &'a mut [MaybeUninit<Entry>],
+}
+
+/// The state of an any-hit traversal ([`Accel::occluded_impl`]).
+struct AnyHit<'a> {
+    r: TRay,
+    t_max: f32,
+    sp: usize,
+    tmins: [f32; 8],
+    tuv: [[f32; 8]; 3],
+    stack: &'a mut [MaybeUninit<u32>],
+}
+
+/// What an any-hit step found.
+enum Step {
+    Next(u32),
+    Hit,
+    Done,
+}
+
+/// The nodes a traversal reads: one layout (`TIERED` false: all in `top`), or the top levels
+/// in full precision and the rest quantised (`Nodes::Tiered`), numbered top first.
+struct Tree<'a, A, B, const TIERED: bool> {
+    top: *const A,
+    /// `rest`'s first node's address minus `top.len()` nodes: node `i` of the tree at
+    /// `rest + i` for `i >= top.len()`.
+    rest: *const B,
+    n_top: u32,
+    _nodes: std::marker::PhantomData<(&'a [A], &'a [B])>,
+}
+
+impl<A, B, const TIERED: bool> Clone for Tree<'_, A, B, TIERED> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<A, B, const TIERED: bool> Copy for Tree<'_, A, B, TIERED> {}
+
+impl<'a, A: WideNode, B: WideNode, const TIERED: bool> Tree<'a, A, B, TIERED> {
+    #[inline(always)]
+    fn new(top: &'a [A], rest: &'a [B]) -> Self {
+        Tree {
+            top: top.as_ptr(),
+            rest: rest.as_ptr().wrapping_sub(top.len()),
+            n_top: top.len() as u32,
+            _nodes: std::marker::PhantomData,
+        }
+    }
+
+    /// Whether node `i` is in `top` (always, untiered).
+    #[inline(always)]
+    fn in_top(&self, i: u32) -> bool {
+        !TIERED || i < self.n_top
+    }
+
+    /// # Safety
+    /// `i` is a node of `top`.
+    #[inline(always)]
+    unsafe fn top(&self, i: u32) -> &'a A {
+        // SAFETY: the caller's promise.
+        unsafe { &*self.top.add(i as usize) }
+    }
+
+    /// # Safety
+    /// `i` is a node of `rest` (numbered after `top`'s).
+    #[inline(always)]
+    unsafe fn rest(&self, i: u32) -> &'a B {
+        // SAFETY: the caller's promise; `self.rest + i` is within `rest`.
+        unsafe { &*self.rest.wrapping_add(i as usize) }
+    }
+
+    /// Ask for node `i`, a child of a node of layout `N` (its lines; a child of a top node
+    /// may be a rest node, which takes fewer).
+    #[inline(always)]
+    fn prefetch<N: WideNode>(&self, i: u32) {
+        if TIERED {
+            let p = if i < self.n_top {
+                self.top.wrapping_add(i as usize) as *const u8
+            } else {
+                self.rest.wrapping_add(i as usize) as *const u8
+            };
+            prefetch(p, N::LINES);
+        } else {
+            prefetch(self.top.wrapping_add(i as usize), A::LINES);
         }
     }
 }
