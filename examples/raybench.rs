@@ -4,8 +4,9 @@
 //! The BVH is built as scenes build it (`Accel::build`, quality `auto`) unless `PRESET` says
 //! otherwise: `auto`, `high` or `medium` (the scene's `accel.quality`), or one of obvhs' other
 //! presets (`fastest`, `very_fast`, `fast`, `slow`, `very_slow`), which `LEAF`, `REINS`,
-//! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments. `STOKES_ISA=avx512|avx2|portable`
-//! forces a lower instruction set than the CPU's best; the one in use is printed.
+//! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments.
+//! `STOKES_ISA=avx512|avx2|portable` forces a lower instruction set than the CPU's best; the one
+//! in use is printed.
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
 

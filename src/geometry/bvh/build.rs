@@ -198,15 +198,7 @@ impl Accel {
             Layout::Quantised => 0,
             _ => FULL_NODES_MAX,
         };
-        let mut total = 0;
-        let top_depth = plan
-            .levels(usize::MAX)
-            .iter()
-            .take_while(|&&n| {
-                total += n;
-                total <= top_nodes
-            })
-            .count();
+        let top_depth = plan.levels(usize::MAX, top_nodes).len();
         let c = collapse::<Node8, QNode8>(&plan, usize::MAX, top_depth).expect("no node limit");
         let nodes = if c.top.is_empty() {
             Nodes::Quantised(PagedArray::new(c.rest))

@@ -42,7 +42,7 @@ pub(super) fn collapse<T: Encode, R: Encode>(
     let n_top = if top_depth == usize::MAX {
         usize::MAX
     } else {
-        plan.levels(top_depth).iter().sum()
+        plan.levels(top_depth, usize::MAX).iter().sum()
     };
     let mut out = Collapsed {
         top: Vec::new(),
@@ -247,12 +247,18 @@ impl<'a> Plan<'a> {
         &self.pieces[first as usize..(first + count) as usize]
     }
 
-    /// The number of nodes of the collapsed tree at each depth from 1 (the root) to at most
-    /// `max_depth`.
-    pub(super) fn levels(&self, max_depth: usize) -> Vec<usize> {
+    /// The number of nodes of the collapsed tree at each depth from 1 (the root) on, for at most
+    /// `max_depth` levels and while all of them together are at most `max_nodes` nodes (only
+    /// those levels are walked).
+    pub(super) fn levels(&self, max_depth: usize, max_nodes: usize) -> Vec<usize> {
         let mut counts = Vec::new();
         let (mut level, mut next, mut kids) = (vec![0usize], Vec::new(), Vec::new());
+        let mut total = 0usize;
         while !level.is_empty() && counts.len() < max_depth {
+            total += level.len();
+            if total > max_nodes {
+                break;
+            }
             counts.push(level.len());
             next.clear();
             for &n in &level {
