@@ -7,8 +7,11 @@
 #                         [RAYSET ...]
 #
 #   --install     apt-get install libembree-dev (Embree 3) first if it is missing
-#   --rounds N    alternating Embree/stokes rounds (default 3); the table shows the median over
-#                 rounds of each process's median
+#   --rounds N    alternating Embree/stokes rounds (default 3); the first table shows the median
+#                 over rounds of each process's median, the second the paired ratio: the median
+#                 of the per-round ratios stokes / Embree (each round's two processes run one
+#                 right after the other, so a slow spell of a shared machine hits both), their
+#                 range and how many rounds reached the goal (docs/performance.md, "The goals")
 #   --reps N      timed passes over all rays inside each process (default 5)
 #   --quality Q   Embree build qualities: high, medium, low, comma separated (default high,medium)
 #   --pin CPU     run both harnesses under `taskset -c CPU`
@@ -107,7 +110,7 @@ IFS=, read -r -a quals <<<"$quality"
 log=$target/embree-raybench.log
 : >"$log"
 echo "$(nproc) CPUs, load average: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log"
-declare -A emed smed sbuild squal ebuild echk schk ntris
+declare -A emed smed sbuild squal ebuild echk schk ntris eround pratio
 sisa=
 checks=()
 for ((r = 1; r <= rounds; r++)); do
@@ -122,6 +125,7 @@ for ((r = 1; r <= rounds; r++)); do
         embree)
           m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$rest")
           emed[$s,$q]+=" $m"
+          eround[$s,$q]=$m
           ebuild[$s,$q]+=" $(sed -n 's/.*build_ms=\([0-9.]*\).*/\1/p' <<<"$rest")"
           echk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$rest")
           ntris[$s]=$(sed -n 's/.*tris=\([0-9]*\).*/\1/p' <<<"$rest")
@@ -142,6 +146,9 @@ for ((r = 1; r <= rounds; r++)); do
     schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
     sisa=$(sed -n 's/^isa //p' <<<"$out")
     echo "round $r: stokes $s median $m Mrays/s"
+    for q in "${quals[@]}"; do
+      pratio[$s,$q]+=" $(awk -v a="$m" -v b="${eround[$s,$q]}" 'BEGIN { printf "%.4f", a / b }')"
+    done
   done
 done
 
@@ -161,6 +168,22 @@ for s in "${sets[@]}"; do
   line+=$(printf ' %9.3f' "$sm")
   for q in "${quals[@]}"; do
     line+=$(printf ' %13.3f' "$(awk -v a="$sm" -v b="$(median ${emed[$s,$q]})" 'BEGIN { print a / b }')")
+  done
+  echo "$line"
+done
+echo
+# The goal of docs/performance.md: at least Embree medium's speed on the large meshes, twice it
+# on the 32-triangle Cornell box (traced by the flat loop of tiny scenes).
+goal_of() { case "$1" in cbox) echo 2 ;; *) echo 1 ;; esac; }
+echo "Paired ratio stokes / Embree: median of the $rounds per-round ratios (range; rounds at or above the goal)"
+for s in "${sets[@]}"; do
+  line=$(printf '%-10s' "$s")
+  for q in "${quals[@]}"; do
+    # shellcheck disable=SC2086
+    line+=$(printf '%s\n' ${pratio[$s,$q]} | sort -g | awk -v q="$q" -v goal="$(goal_of "$s")" \
+      '{ a[NR] = $1; n += ($1 >= goal) }
+       END { med = NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2
+             printf "  %s %.3f (%.3f-%.3f; %d of %d >= %gx)", q, med, a[1], a[NR], n, NR, goal }')
   done
   echo "$line"
 done
