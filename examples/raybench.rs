@@ -29,19 +29,56 @@ fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
     s
 }
 
+const USAGE: &str = "usage: raybench SET [N_RAYS] [REPS] [occ] (SET: soup100k, cbox, or one \
+    that examples/make_rayset writes; env PRESET, LEAF, REINS, NOSPLIT, LAYOUT, STOKES_ISA: see \
+    examples/raybench.rs)";
+
+/// Exit 2 with `msg` and the usage.
+fn fail(msg: &str) -> ! {
+    eprintln!("error: {msg}\n{USAGE}");
+    std::process::exit(2);
+}
+
+/// Environment variable `var` parsed as a `T`, if set.
+fn env_parse<T: std::str::FromStr>(var: &str, what: &str) -> Option<T> {
+    let v = std::env::var(var).ok()?;
+    Some(
+        v.parse()
+            .unwrap_or_else(|_| fail(&format!("{var}={v}: not {what}"))),
+    )
+}
+
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     if let Err(e) = stokes::geometry::Isa::from_env() {
-        eprintln!("error: {e}");
-        std::process::exit(2);
+        fail(&e.to_string());
     }
-    let set = ray_sets::load(&a[1]);
-    let n: usize = a
-        .get(2)
-        .map_or(set.rays.len(), |s| s.parse().unwrap())
+    let Some(name) = a.get(1) else {
+        fail("no ray set given")
+    };
+    let set = ray_sets::try_load(name).unwrap_or_else(|e| fail(&e));
+    let arg = |i: usize, what: &str| {
+        a.get(i).map(|s| {
+            s.parse::<usize>()
+                .ok()
+                .filter(|&x| x > 0)
+                .unwrap_or_else(|| fail(&format!("{what} {s:?}: not a positive whole number")))
+        })
+    };
+    let n = arg(2, "N_RAYS")
+        .unwrap_or(set.rays.len())
         .min(set.rays.len());
-    let reps: usize = a.get(3).map_or(5, |s| s.parse().unwrap());
-    let occ = a.get(4).is_some_and(|s| s == "occ");
+    let reps = arg(3, "REPS").unwrap_or(5);
+    let occ = match a.get(4).map(String::as_str) {
+        None => false,
+        Some("occ") => true,
+        Some(x) => fail(&format!(
+            "fourth argument {x:?}: only `occ` (any hit) is known"
+        )),
+    };
+    if a.len() > 5 {
+        fail("too many arguments");
+    }
     let preset = std::env::var("PRESET")
         .ok()
         .filter(|p| !p.is_empty())
@@ -59,6 +96,15 @@ fn main() {
         }
         _ => None,
     };
+    if quality.is_some_and(|q| q != BuildQuality::Medium)
+        && let Some(v) = ["LEAF", "REINS", "NOSPLIT", "LAYOUT"]
+            .iter()
+            .find(|v| std::env::var(v).is_ok())
+    {
+        fail(&format!(
+            "{v} needs an obvhs preset (PRESET=medium, very_slow, ...), not PRESET={preset}"
+        ));
+    }
     let accel = match quality {
         Some(q) => Accel::build_quality(&set.tris, &[], q),
         None => {
@@ -70,13 +116,16 @@ fn main() {
                 "medium" => B::medium_build(),
                 "slow" => B::slow_build(),
                 "very_slow" => B::very_slow_build(),
-                _ => panic!("PRESET: unknown preset {preset}"),
+                _ => fail(&format!(
+                    "PRESET={preset}: not one of auto, high, medium, fastest, very_fast, fast, \
+                     slow, very_slow"
+                )),
             };
-            if let Ok(l) = std::env::var("LEAF") {
-                params.max_prims_per_leaf = l.parse().unwrap();
+            if let Some(l) = env_parse("LEAF", "a whole number of primitives") {
+                params.max_prims_per_leaf = l;
             }
-            if let Ok(l) = std::env::var("REINS") {
-                params.reinsertion_batch_ratio = l.parse().unwrap();
+            if let Some(r) = env_parse("REINS", "a ratio (a number)") {
+                params.reinsertion_batch_ratio = r;
             }
             let split = std::env::var("NOSPLIT").is_err();
             // LAYOUT=full|quantised|tiered[:TOP_NODES] forces the node layout (default: by
@@ -85,12 +134,15 @@ fn main() {
                 None => Layout::Auto,
                 Some("full") => Layout::Full,
                 Some("quantised") => Layout::Quantised,
-                Some(t) if t.starts_with("tiered") => Layout::Tiered {
-                    top_nodes: t
-                        .strip_prefix("tiered:")
-                        .map_or(8192, |n| n.parse().expect("LAYOUT=tiered:TOP_NODES")),
+                Some("tiered") => Layout::Tiered { top_nodes: 8192 },
+                Some(t) if t.starts_with("tiered:") => Layout::Tiered {
+                    top_nodes: t["tiered:".len()..].parse().unwrap_or_else(|_| {
+                        fail(&format!("LAYOUT={t}: TOP_NODES is not a whole number"))
+                    }),
                 },
-                Some(l) => panic!("LAYOUT: unknown layout {l}"),
+                Some(l) => fail(&format!(
+                    "LAYOUT={l}: not full, quantised, tiered or tiered:TOP_NODES"
+                )),
             };
             Accel::build_with_layout(&set.tris, &[], params, split, layout)
         }

@@ -2,8 +2,53 @@
 
 mod common;
 
-use common::ray_sets::{compare, load};
+use common::ray_sets::{compare, load, try_load};
 use stokes::geometry::Accel;
+
+/// A missing or malformed ray set is an error that names the set, the file and what is wrong
+/// (examples/raybench prints it and exits 2), not a panic.
+#[test]
+fn bad_ray_sets_are_named_errors() {
+    let e = try_load("no-such-set")
+        .err()
+        .expect("a missing set is an error");
+    assert!(e.contains("no-such-set_tris.bin"), "{e}");
+    assert!(e.contains("make_rayset no-such-set"), "{e}");
+    // a set of its own under target/rays (where examples/make_rayset writes), removed after
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/rays");
+    std::fs::create_dir_all(&dir).unwrap();
+    let name = format!("bad-set-{}", std::process::id());
+    let write = |part: &str, floats: usize, extra: usize| {
+        let mut b = vec![0u8; 4 * floats + extra];
+        b.iter_mut()
+            .enumerate()
+            .for_each(|(i, x)| *x = (i % 7) as u8);
+        std::fs::write(dir.join(format!("{name}_{part}.bin")), b).unwrap();
+    };
+    write("tris", 9, 0);
+    write("rays", 6 * 2, 0);
+    write("hits_t", 2, 0);
+    write("hits_prim", 2, 0);
+    assert!(try_load(&name).is_ok());
+    // a ray cut short
+    write("rays", 6 * 2 - 1, 0);
+    let e = try_load(&name).err().expect("a partial ray is an error");
+    assert!(
+        e.contains(&format!("{name}_rays.bin")) && e.contains("records of 6"),
+        "{e}"
+    );
+    // a torn word
+    write("rays", 6 * 2, 3);
+    let e = try_load(&name).err().expect("a torn word is an error");
+    assert!(e.contains("not a whole number of 4-byte words"), "{e}");
+    // hits that do not match the rays
+    write("rays", 6 * 3, 0);
+    let e = try_load(&name).err().expect("a count mismatch is an error");
+    assert!(e.contains("3 rays but 2 hit distances"), "{e}");
+    for part in ["tris", "rays", "hits_t", "hits_prim"] {
+        std::fs::remove_file(dir.join(format!("{name}_{part}.bin"))).unwrap();
+    }
+}
 
 #[test]
 fn cbox_matches_reference() {

@@ -135,7 +135,7 @@ for ((r = 1; r <= rounds; r++)); do
       esac
     done <<<"$out"
     # stokes
-    out=$(env -u LEAF -u REINS -u NOSPLIT PRESET="${STOKES_PRESET:-auto}" \
+    out=$(env -u LEAF -u REINS -u NOSPLIT -u LAYOUT PRESET="${STOKES_PRESET:-auto}" \
       RAYON_NUM_THREADS="${STOKES_BUILD_THREADS:-1}" \
       "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
     printf '%s\n' "$out" >>"$log"

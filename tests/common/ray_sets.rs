@@ -16,9 +16,9 @@ pub struct RaySet {
     pub hits_prim: Vec<i32>,
 }
 
-/// A stored set (`benches/data/rays/`), else a generated one (`target/rays/`, written by
-/// examples/make_rayset).
-fn read_words(name: &str) -> Vec<[u8; 4]> {
+/// The file `name` of a stored set (`benches/data/rays/`), else of a generated one
+/// (`target/rays/`, written by examples/make_rayset), as little-endian words.
+fn read_words(name: &str) -> Result<Vec<[u8; 4]>, String> {
     let stored: PathBuf = [env!("CARGO_MANIFEST_DIR"), "benches", "data", "rays", name]
         .iter()
         .collect();
@@ -26,24 +26,51 @@ fn read_words(name: &str) -> Vec<[u8; 4]> {
         .iter()
         .collect();
     let path = if stored.is_file() { stored } else { generated };
-    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    assert_eq!(bytes.len() % 4, 0);
-    bytes
+    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if !bytes.len().is_multiple_of(4) {
+        return Err(format!(
+            "{}: {} bytes, not a whole number of 4-byte words",
+            path.display(),
+            bytes.len()
+        ));
+    }
+    Ok(bytes
         .chunks_exact(4)
         .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect()
+        .collect())
 }
 
-fn read_f32(name: &str) -> Vec<f32> {
-    read_words(name)
+/// `name`'s f32s, a whole number of `per` (a record: 9 for a triangle, 6 for a ray).
+fn read_f32(name: &str, per: usize) -> Result<Vec<f32>, String> {
+    let v: Vec<f32> = read_words(name)?
         .into_iter()
         .map(f32::from_le_bytes)
-        .collect()
+        .collect();
+    if !v.len().is_multiple_of(per) {
+        return Err(format!(
+            "{name}: {} floats, not a whole number of records of {per}",
+            v.len()
+        ));
+    }
+    Ok(v)
 }
 
+/// Ray set `set` (panics with [`try_load`]'s message, for tests and benches).
 pub fn load(set: &str) -> RaySet {
-    let t = read_f32(&format!("{set}_tris.bin"));
-    let r = read_f32(&format!("{set}_rays.bin"));
+    try_load(set).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Ray set `set`, or what is wrong with it: a missing file (for the generated sets, the command
+/// that writes it), or files that do not fit the format above or each other.
+pub fn try_load(set: &str) -> Result<RaySet, String> {
+    let hint = |e: String| {
+        format!(
+            "ray set {set}: {e} (stored sets are in benches/data/rays; \
+             `cargo run --release --example make_rayset {set}` writes the generated ones)"
+        )
+    };
+    let t = read_f32(&format!("{set}_tris.bin"), 9).map_err(hint)?;
+    let r = read_f32(&format!("{set}_rays.bin"), 6).map_err(hint)?;
     let v = |s: &[f32]| Vec3::new(s[0], s[1], s[2]);
     let tris = t
         .chunks_exact(9)
@@ -53,19 +80,26 @@ pub fn load(set: &str) -> RaySet {
         .chunks_exact(6)
         .map(|c| Ray::new(v(&c[0..3]), v(&c[3..6])))
         .collect();
-    let hits_t = read_f32(&format!("{set}_hits_t.bin"));
+    let hits_t = read_f32(&format!("{set}_hits_t.bin"), 1).map_err(hint)?;
     let hits_prim: Vec<i32> = read_words(&format!("{set}_hits_prim.bin"))
+        .map_err(hint)?
         .into_iter()
         .map(i32::from_le_bytes)
         .collect();
-    assert_eq!(rays.len(), hits_t.len());
-    assert_eq!(rays.len(), hits_prim.len());
-    RaySet {
+    if rays.len() != hits_t.len() || rays.len() != hits_prim.len() {
+        return Err(format!(
+            "ray set {set}: {} rays but {} hit distances and {} hit primitives",
+            rays.len(),
+            hits_t.len(),
+            hits_prim.len()
+        ));
+    }
+    Ok(RaySet {
         tris,
         rays,
         hits_t,
         hits_prim,
-    }
+    })
 }
 
 #[derive(Debug, Default)]
