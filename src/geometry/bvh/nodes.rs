@@ -93,7 +93,7 @@ pub(super) struct Entry {
 
 /// A node layout the traversal can visit.
 pub(super) trait WideNode {
-    /// Cache lines to prefetch for a node.
+    /// Cache lines to prefetch for a child of a node of this layout (from the child's first).
     const LINES: usize;
     /// Ask for the node's leaf packets (`blocks`: the first packet) while the boxes are tested.
     fn prefetch_leaves(&self, blocks: *const u8);
@@ -484,7 +484,11 @@ impl Encode for QNode8 {
 }
 
 impl WideNode for QNode8 {
-    const LINES: usize = 2;
+    /// The node spans two lines (80 bytes); the third holds most of the next sibling, often
+    /// visited too (children are consecutive). Paired on the 1M-triangle sets, 3 against 2:
+    /// grid1m 1.04× and 1.02×, soup1m 1.03× and 1.05×, sphere1m 1.00× and 1.02× (12 and 20
+    /// rounds); 4 lines 1.03×, 0.98×, 0.98× (docs/performance.md §1, "Tiered nodes").
+    const LINES: usize = 3;
 
     /// The node's first leaf packet (packet 0 for a node without leaves, without a branch).
     #[inline(always)]
