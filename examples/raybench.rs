@@ -4,7 +4,8 @@
 //! The BVH is built as scenes build it (`Accel::build`, quality `auto`) unless `PRESET` says
 //! otherwise: `auto`, `high` or `medium` (the scene's `accel.quality`), or one of obvhs' other
 //! presets (`fastest`, `very_fast`, `fast`, `slow`, `very_slow`), which `LEAF`, `REINS`,
-//! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments.
+//! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments (with `auto`
+//! or `high` they are an error).
 //! `STOKES_ISA=avx512|avx2|portable` forces a lower instruction set than the CPU's best; the one
 //! in use is printed.
 #[path = "../tests/common/ray_sets.rs"]
