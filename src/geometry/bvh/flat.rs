@@ -1,5 +1,5 @@
 //! The flat 8-wide loops that trace tiny triangle-only scenes without a traversal (AVX2, and the
-//! same compiled for AVX-512).
+//! same compiled for AVX-512, whose closest hit keeps each lane's nearest hit in registers).
 
 use super::leaf::{Prim, TriBlock};
 use super::{Accel, Isa};
@@ -80,6 +80,74 @@ impl Accel {
         best
     }
 
+    /// Closest hit over the flat blocks on the AVX-512 path: each lane keeps its nearest hit
+    /// across the blocks in registers (t, u, v and the block), and one reduction at the end
+    /// picks the nearest of the eight, the lowest index on a tie, as a linear scan would. It
+    /// needs AVX-512's thirty-two registers: with AVX2's sixteen the loop spills, and pt-hero
+    /// on cornell-box ran 0.97× as fast (docs/performance.md §1), so AVX2 keeps
+    /// [`Self::intersect_flat`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1")]
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_flat_lanes(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        use std::arch::x86_64::*;
+        let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
+        let mut bt = _mm256_set1_ps(t_max);
+        let (mut bu, mut bv) = (_mm256_setzero_ps(), _mm256_setzero_ps());
+        let mut bk = _mm256_setzero_ps();
+        for (k, blk) in self.flat.iter().enumerate() {
+            // Unused lanes are zero and never hit; a lane takes a hit only if strictly nearer,
+            // so the earlier block keeps a tie.
+            let (ok, neg, t, u, v) = Self::block_lanes(&blk.tri, Some(&blk.n), o, d, bt);
+            // blendv reads the sign bit only: set where t is in range and u, v, w are not negative.
+            let hit = _mm256_andnot_ps(neg, ok);
+            bt = _mm256_blendv_ps(bt, t, hit);
+            bu = _mm256_blendv_ps(bu, u, hit);
+            bv = _mm256_blendv_ps(bv, v, hit);
+            bk = _mm256_blendv_ps(bk, _mm256_castsi256_ps(_mm256_set1_epi32(k as i32)), hit);
+        }
+        // The nearest t of the eight lanes in every lane.
+        let m = _mm256_min_ps(bt, _mm256_permute2f128_ps::<1>(bt, bt));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
+        let t_best = _mm256_cvtss_f32(m);
+        if !(t_best < t_max) {
+            return None;
+        }
+        let mut near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(bt, m)) as u32;
+        let (mut uv, mut ks) = ([[0.0f32; 8]; 2], [0u32; 8]);
+        // SAFETY: each store writes one whole `[f32; 8]` or `[u32; 8]`.
+        unsafe {
+            _mm256_storeu_ps(uv[0].as_mut_ptr(), bu);
+            _mm256_storeu_ps(uv[1].as_mut_ptr(), bv);
+            _mm256_storeu_ps(ks.as_mut_ptr().cast(), bk);
+        }
+        let (mut best, mut lane) = (u32::MAX, 0);
+        while near != 0 {
+            let l = near.trailing_zeros() as usize;
+            near &= near - 1;
+            let prim = ks[l] * 8 + l as u32;
+            if prim < best {
+                (best, lane) = (prim, l);
+            }
+        }
+        Some(Hit {
+            t: t_best,
+            prim: best,
+            u: uv[0][lane],
+            v: uv[1][lane],
+        })
+    }
+
     /// Any hit over the flat blocks, the ray in registers as for [`Self::intersect_flat`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,popcnt,bmi1")]
@@ -101,18 +169,16 @@ impl Accel {
     }
 
     ray_entry!(
-        /// [`Self::intersect_flat`] on the AVX-512 path, 8 lanes (testing two packets at once in
-        /// 16 lanes traced the Cornell box's rays 1.25× as fast alone, but made pt-hero 0.89× as
-        /// fast, the 512-bit instructions slowing the shading code around them;
-        /// docs/performance.md §1). The compiler does not inline the AVX2 loop here (this entry
-        /// is a jump to it, `nm -S`), so the closest hit of tiny scenes runs the AVX2 code on
-        /// this path too; the any-hit loop below is inlined and compiled for AVX-512.
+        /// [`Self::intersect_flat_lanes`]: the AVX-512 path, 8 lanes (testing two packets at once
+        /// in 16 lanes traced the Cornell box's rays 1.25× as fast alone, but made pt-hero 0.89×
+        /// as fast, the 512-bit instructions slowing the shading code around them;
+        /// docs/performance.md §1).
         intersect_flat_avx512,
         "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
         Option<Hit>,
         |a, ray, t_max| {
             let (o, d) = (ray.o, ray.d);
-            a.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            a.intersect_flat_lanes(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
         }
     );
 

@@ -160,6 +160,41 @@ impl Accel {
         out: Option<&mut [[f32; 8]; 3]>,
     ) -> u32 {
         use std::arch::x86_64::*;
+        let (ok, neg, t, u, v) = Self::block_lanes(blk, normal, o, d, _mm256_set1_ps(t_max));
+        let hits = _mm256_movemask_ps(ok) as u32 & !(_mm256_movemask_ps(neg) as u32);
+        if hits != 0
+            && let Some(out) = out
+        {
+            // SAFETY: each store writes one whole `[f32; 8]`.
+            unsafe {
+                _mm256_storeu_ps(out[0].as_mut_ptr(), t);
+                _mm256_storeu_ps(out[1].as_mut_ptr(), u);
+                _mm256_storeu_ps(out[2].as_mut_ptr(), v);
+            }
+        }
+        hits
+    }
+
+    /// The lanes of [`Self::flat_block`] in registers: `ok` is set in the lanes with t in
+    /// (0, t_max) (t_max per lane), the sign bit of `neg` in those with a negative u, v or w,
+    /// which miss; then t, u, v.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) fn block_lanes(
+        blk: &TriBlock,
+        normal: Option<&[[f32; 8]; 3]>,
+        o: [f32; 3],
+        d: [f32; 3],
+        t_max: std::arch::x86_64::__m256,
+    ) -> (
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+        std::arch::x86_64::__m256,
+    ) {
+        use std::arch::x86_64::*;
         // SAFETY: AVX2 is enabled for this function; all loads read whole `[f32; 8]` fields.
         unsafe {
             let ld = |a: &[f32; 8]| _mm256_loadu_ps(a.as_ptr());
@@ -198,21 +233,12 @@ impl Accel {
             let u = mul(dot(rx, ry, rz, &blk.c[0], &blk.c[1], &blk.c[2]), inv_det);
             let v = mul(dot(rx, ry, rz, &blk.b[0], &blk.b[1], &blk.b[2]), inv_det);
             let w = sub(sub(_mm256_set1_ps(1.0), u), v);
-            let neg = _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(u, v), w)) as u32;
             let t = mul(dotv(cx, cy, cz, nx, ny, nz), inv_det);
             let ok = _mm256_and_ps(
                 _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_setzero_ps()),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, t_max),
             );
-            let hits = _mm256_movemask_ps(ok) as u32 & !neg;
-            if hits != 0
-                && let Some(out) = out
-            {
-                _mm256_storeu_ps(out[0].as_mut_ptr(), t);
-                _mm256_storeu_ps(out[1].as_mut_ptr(), u);
-                _mm256_storeu_ps(out[2].as_mut_ptr(), v);
-            }
-            hits
+            (ok, _mm256_or_ps(_mm256_or_ps(u, v), w), t, u, v)
         }
     }
 

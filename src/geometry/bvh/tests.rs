@@ -560,3 +560,49 @@ fn tiered_layout_splits_at_a_level() {
     assert!(matches!(every.nodes, Nodes::Full(_)));
     check_quality(BuildQuality::Medium, &tris, &[], 3000, 22);
 }
+
+/// The flat loop of tiny scenes reports a tie (coincident copies of one triangle) as a linear
+/// scan does, at the lowest index, whether the copies share a lane of different packets or sit
+/// in different lanes (index 6 in lane 6 of the first packet wins over index 9 in lane 1 of the
+/// second), with brute force's t, u and v; and a copy further along the ray never wins.
+#[test]
+fn flat_loop_ties_go_to_the_lowest_index() {
+    let mut rng = Pcg64::seed_from_u64(31);
+    let (tris, _) = scene(&mut rng, 40, 0);
+    let target = Triangle::new(
+        Vec3::new(-1.0, -1.0, 20.0),
+        Vec3::new(1.0, -1.0, 20.0),
+        Vec3::new(0.0, 1.5, 20.0),
+    );
+    let behind = Triangle::new(
+        Vec3::new(-1.0, -1.0, 19.0),
+        Vec3::new(1.0, -1.0, 19.0),
+        Vec3::new(0.0, 1.5, 19.0),
+    );
+    for (copies, lowest) in [(&[9, 6, 33][..], 6), (&[3, 11, 19, 35], 3), (&[30, 38], 30)] {
+        let mut t = tris.clone();
+        for &i in copies {
+            t[i] = target;
+        }
+        t[0] = behind;
+        let mut accel = Accel::build(&t, &[]);
+        for isa in Isa::available() {
+            accel.set_isa(isa).unwrap();
+            if !accel.is_flat() {
+                continue;
+            }
+            for k in 0..200 {
+                let s = 0.5 * (k as f32 / 200.0) - 0.25;
+                let ray = Ray::new(
+                    Vec3::new(s, 0.1 - s * 0.5, 40.0),
+                    Vec3::new(0.01 * s, 0.02, -1.0).normalize(),
+                );
+                let bf = brute_force_intersect(&t, &[], &ray, f32::INFINITY).unwrap();
+                assert_eq!(bf.prim, lowest, "ray {k}: brute force");
+                let got = accel.intersect(&ray, f32::INFINITY).unwrap();
+                let key = |h: Hit| (h.t, h.prim, h.u, h.v);
+                assert_eq!(key(got), key(bf), "ray {k} ({isa}, copies {copies:?})");
+            }
+        }
+    }
+}
