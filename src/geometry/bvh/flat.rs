@@ -85,22 +85,12 @@ impl Accel {
     /// picks the nearest of the eight, the lowest index on a tie, as a linear scan would. It
     /// needs AVX-512's thirty-two registers: with AVX2's sixteen the loop spills, and pt-hero
     /// on cornell-box ran 0.97× as fast (docs/performance.md §1), so AVX2 keeps
-    /// [`Self::intersect_flat`].
+    /// [`Self::intersect_flat`]. Inlined into its entry point, so the ray stays in registers
+    /// whatever the signature.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1")]
-    #[allow(clippy::too_many_arguments)]
-    fn intersect_flat_lanes(
-        &self,
-        ox: f32,
-        oy: f32,
-        oz: f32,
-        dx: f32,
-        dy: f32,
-        dz: f32,
-        t_max: f32,
-    ) -> Option<Hit> {
+    fn intersect_flat_lanes(&self, o: [f32; 3], d: [f32; 3], t_max: f32) -> Option<Hit> {
         use std::arch::x86_64::*;
-        let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
         let mut bt = _mm256_set1_ps(t_max);
         let (mut bu, mut bv) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         let mut bk = _mm256_setzero_ps();
@@ -177,8 +167,7 @@ impl Accel {
         "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
         Option<Hit>,
         |a, ray, t_max| {
-            let (o, d) = (ray.o, ray.d);
-            a.intersect_flat_lanes(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            a.intersect_flat_lanes(ray.o.to_array(), ray.d.to_array(), t_max)
         }
     );
 

@@ -564,7 +564,8 @@ fn tiered_layout_splits_at_a_level() {
 /// The flat loop of tiny scenes reports a tie (coincident copies of one triangle) as a linear
 /// scan does, at the lowest index, whether the copies share a lane of different packets or sit
 /// in different lanes (index 6 in lane 6 of the first packet wins over index 9 in lane 1 of the
-/// second), with brute force's t, u and v; and a copy further along the ray never wins.
+/// second), with brute force's t, u and v; and the same triangle further along the ray (index 0)
+/// never wins.
 #[test]
 fn flat_loop_ties_go_to_the_lowest_index() {
     let mut rng = Pcg64::seed_from_u64(31);
