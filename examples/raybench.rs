@@ -34,6 +34,16 @@ const USAGE: &str = "usage: raybench SET [N_RAYS] [REPS] [occ] (SET: soup100k, c
     that examples/make_rayset writes; env PRESET, LEAF, REINS, NOSPLIT, LAYOUT, STOKES_ISA: see \
     examples/raybench.rs)";
 
+/// The experiment variables, which modify an obvhs preset's build.
+const EXPERIMENT_VARS: [&str; 4] = ["LEAF", "REINS", "NOSPLIT", "LAYOUT"];
+
+/// The first experiment variable that is set, if any.
+fn experiment_var() -> Option<&'static str> {
+    EXPERIMENT_VARS
+        .into_iter()
+        .find(|v| std::env::var(v).is_ok())
+}
+
 /// Exit 2 with `msg` and the usage.
 fn fail(msg: &str) -> ! {
     eprintln!("error: {msg}\n{USAGE}");
@@ -88,19 +98,11 @@ fn main() {
     let quality = match preset.as_str() {
         "auto" => Some(BuildQuality::Auto),
         "high" => Some(BuildQuality::High),
-        "medium"
-            if ["LEAF", "REINS", "NOSPLIT", "LAYOUT"]
-                .iter()
-                .all(|v| std::env::var(v).is_err()) =>
-        {
-            Some(BuildQuality::Medium)
-        }
+        "medium" if experiment_var().is_none() => Some(BuildQuality::Medium),
         _ => None,
     };
     if quality.is_some_and(|q| q != BuildQuality::Medium)
-        && let Some(v) = ["LEAF", "REINS", "NOSPLIT", "LAYOUT"]
-            .iter()
-            .find(|v| std::env::var(v).is_ok())
+        && let Some(v) = experiment_var()
     {
         fail(&format!(
             "{v} needs an obvhs preset (PRESET=medium, very_slow, ...), not PRESET={preset}"
