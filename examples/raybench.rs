@@ -195,13 +195,15 @@ fn main() {
     );
     #[cfg(feature = "bvh-stats")]
     {
-        let [v, p, l] = stokes::geometry::bvh::stats::totals();
+        let [v, p, l, beyond] = stokes::geometry::bvh::stats::totals();
         let nr = (n * reps) as f64;
         eprintln!(
-            "per ray: {:.2} nodes, {:.2} packets, {:.2} lanes",
+            "per ray: {:.2} nodes, {:.2} packets, {:.2} lanes; {:.2} of the packets in leaves \
+             beginning beyond the final hit",
             v as f64 / nr,
             p as f64 / nr,
-            l as f64 / nr
+            l as f64 / nr,
+            beyond as f64 / nr
         );
     }
     times.sort_by(|a, b| a.partial_cmp(b).unwrap());

@@ -414,11 +414,17 @@ impl Accel {
 }
 
 /// Traversal counters for profiling (`--features bvh-stats`; off in normal builds): closest-hit
-/// node visits, packet tests, lanes tested.
+/// node visits, packet tests, lanes tested, and packet tests of leaves whose box begins beyond
+/// the ray's final hit (which a perfect order of the leaves would have skipped).
 #[cfg(feature = "bvh-stats")]
 pub mod stats {
+    use std::cell::RefCell;
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-    static C: [AtomicU64; 3] = [const { AtomicU64::new(0) }; 3];
+    static C: [AtomicU64; 4] = [const { AtomicU64::new(0) }; 4];
+    thread_local! {
+        /// The entry distances of the leaves the current ray has tested.
+        static ENTRIES: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+    }
 
     pub(super) fn count(what: usize, lanes: u64) {
         C[what].fetch_add(1, Relaxed);
@@ -427,9 +433,25 @@ pub mod stats {
         }
     }
 
-    /// (node visits, packet tests, lanes tested) since the start.
-    pub fn totals() -> [u64; 3] {
-        [C[0].load(Relaxed), C[1].load(Relaxed), C[2].load(Relaxed)]
+    /// A closest-hit packet test of a leaf the ray enters at `t`.
+    pub(super) fn leaf_entry(t: f32) {
+        ENTRIES.with_borrow_mut(|e| e.push(t));
+    }
+
+    /// The end of a closest-hit traversal whose final hit (or `t_max`) is at `t`.
+    pub(super) fn ray_end(t: f32) {
+        let beyond = ENTRIES.with_borrow_mut(|e| {
+            let n = e.iter().filter(|&&x| x > t).count();
+            e.clear();
+            n
+        });
+        C[3].fetch_add(beyond as u64, Relaxed);
+    }
+
+    /// (node visits, packet tests, lanes tested, packet tests beyond the final hit) since the
+    /// start.
+    pub fn totals() -> [u64; 4] {
+        C.each_ref().map(|c| c.load(Relaxed))
     }
 }
 

@@ -173,6 +173,8 @@ impl Accel {
             match next {
                 Some(n) => cur = n,
                 None => {
+                    #[cfg(feature = "bvh-stats")]
+                    stats::ray_end(st.t_best);
                     return (st.lane_best != u32::MAX).then(|| Hit {
                         t: st.t_best,
                         prim: self.blocks[st.lane_best as usize / 8].ids[st.lane_best as usize % 8],
@@ -228,6 +230,14 @@ impl Accel {
         // Leaves first (they can shrink t_best before the inner children are ordered): all
         // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
         // lowest lane on ties.
+        #[cfg(feature = "bvh-stats")]
+        {
+            let mut m = leaves;
+            while m != 0 {
+                stats::leaf_entry(st.tmins[m.trailing_zeros() as usize]);
+                m &= m - 1;
+            }
+        }
         if leaves != 0 {
             node.leaf_packets(leaves, |b, lanes| {
                 #[cfg(feature = "bvh-stats")]
