@@ -97,6 +97,11 @@ pub(super) trait WideNode {
     const LINES: usize;
     /// Ask for the node's leaf packets (`blocks`: the first packet) while the boxes are tested.
     fn prefetch_leaves(&self, blocks: *const u8);
+    /// Ask for the packets of the hit leaf slots `leaves` of a [`Visit`] after the first (the
+    /// first is tested at once). Only the full layout does: a quantised node's first packet is
+    /// fetched before its visit (`prefetch_leaves`), and asking for the rest as well was level.
+    #[inline(always)]
+    fn prefetch_later_leaves(&self, _leaves: u32, _blocks: *const u8) {}
     /// Call `f(packet, lanes)` for each packet of the hit leaves `leaves` of a [`Visit`], until
     /// it returns true (then true).
     fn leaf_packets(&self, leaves: u32, f: impl FnMut(usize, u32) -> bool) -> bool;
@@ -247,9 +252,22 @@ impl WideNode for Node8 {
     const LINES: usize = 4;
 
     /// The first packet is not known without a look at the slots. (Keeping it in the node's
-    /// padding and fetching it here did not pay: soup100k 0.98× on an AVX-512 Xeon.)
+    /// padding and fetching it here did not pay: soup100k 0.98× on an AVX-512 Xeon; the
+    /// largest leaf's packet, on an AMD EPYC, added nothing to `prefetch_later_leaves`.)
     #[inline(always)]
     fn prefetch_leaves(&self, _blocks: *const u8) {}
+
+    /// Each hit leaf slot names its own packet (soup100k 1.02×, docs/performance.md §1).
+    #[inline(always)]
+    fn prefetch_later_leaves(&self, leaves: u32, blocks: *const u8) {
+        let mut later = leaves & leaves.wrapping_sub(1);
+        while later != 0 {
+            let i = later.trailing_zeros() as usize;
+            later &= later - 1;
+            let packet = (self.child[i] & !LEAF) as usize;
+            prefetch(blocks.wrapping_add(packet * PACKET_BYTES), 5);
+        }
+    }
 
     /// `leaves` are the hit leaf slots; each is one packet, all of whose lanes are tested
     /// (unused lanes never hit).

@@ -214,6 +214,8 @@ impl Accel {
             inner: inner_hits,
             leaves,
         } = node.visit::<ISA, SITE>(&st.r, st.t_best, &mut st.tmins);
+        // the other hit leaves' packets load while the first is tested
+        node.prefetch_later_leaves(leaves, blocks);
         // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
         // load while the leaves are tested.
         let sp = st.sp;
