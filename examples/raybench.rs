@@ -7,7 +7,9 @@
 //! `NOSPLIT` and `LAYOUT=full|quantised|tiered[:TOP_NODES]` modify for experiments (with `auto`
 //! or `high` they are an error).
 //! `STOKES_ISA=avx512|avx2|portable` forces a lower instruction set than the CPU's best; the one
-//! in use is printed.
+//! in use is printed. So are the tree's fingerprint and a fingerprint of every ray's answer (the
+//! closest hit's t, primitive, u and v to the bit, or the any-hit result), so that two builds
+//! can be shown to give the same trees and the same hits.
 #[path = "../tests/common/ray_sets.rs"]
 mod ray_sets;
 
@@ -28,6 +30,23 @@ fn trace_all(accel: &Accel, rays: &[Ray], occ: bool) -> f64 {
         }
     }
     s
+}
+
+/// A fingerprint of every ray's answer, to compare builds to the bit: the closest hit's t,
+/// primitive, u and v (or none), or whether the ray is occluded.
+fn hits_fingerprint(accel: &Accel, rays: &[Ray], occ: bool) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for r in rays {
+        if occ {
+            accel.occluded(r, 1.0).hash(&mut h);
+        } else {
+            let hit = accel.intersect(r, f32::INFINITY);
+            hit.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+                .hash(&mut h);
+        }
+    }
+    h.finish()
 }
 
 const USAGE: &str = "usage: raybench SET [N_RAYS] [REPS] [occ] (SET: soup100k, cbox, or one \
@@ -206,6 +225,11 @@ fn main() {
             beyond as f64 / nr
         );
     }
+    // (after the counts above, which are of the timed passes only)
+    eprintln!(
+        "hits fingerprint {:016x}",
+        hits_fingerprint(&accel, &set.rays[..n], occ)
+    );
     times.sort_by(|a, b| a.partial_cmp(b).unwrap());
     println!(
         "{} n={n} occ={occ}: best {:.3} Mrays/s, median {:.3} Mrays/s (1 thread) chk {chk:.3}",

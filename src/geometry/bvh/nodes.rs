@@ -95,13 +95,33 @@ pub(super) struct Entry {
 pub(super) trait WideNode {
     /// Cache lines to prefetch for a child of a node of this layout (from the child's first).
     const LINES: usize;
+    /// Whether the traversals test this layout's hit leaves one step late, after the next
+    /// node's visit, so that their packets' misses overlap it: the quantised nodes' (the large
+    /// trees', whose packets come from memory; soup1m 1.12×, grid1m 1.04×), not the full
+    /// nodes' (a tree that fits the caches gained nothing; docs/performance.md §1).
+    const LEAVES_LATE: bool;
     /// Ask for the node's leaf packets (`blocks`: the first packet) while the boxes are tested.
     fn prefetch_leaves(&self, blocks: *const u8);
-    /// Ask for the packets of the hit leaf slots `leaves` of a [`Visit`] after the first (the
-    /// first is tested at once). Only the full layout does: a quantised node's first packet is
-    /// fetched before its visit (`prefetch_leaves`), and asking for the rest as well was level.
+    /// Ask for the packets of the hit leaf slots `leaves` of a [`Visit`].
     #[inline(always)]
-    fn prefetch_later_leaves(&self, _leaves: u32, _blocks: *const u8) {}
+    fn prefetch_hit_leaves(&self, leaves: u32, blocks: *const u8) {
+        self.leaf_packets(leaves, |packet, _| {
+            prefetch(blocks.wrapping_add(packet * PACKET_BYTES), 5);
+            false
+        });
+    }
+    /// The packets of the hit leaf slots `leaves` of a [`Visit`] into `out`, in slot order;
+    /// how many.
+    #[inline(always)]
+    fn hit_packets(&self, leaves: u32, out: &mut [u32; 8]) -> usize {
+        let mut n = 0;
+        self.leaf_packets(leaves, |packet, _| {
+            out[n] = packet as u32;
+            n += 1;
+            false
+        });
+        n
+    }
     /// Call `f(packet, lanes)` for each packet of the hit leaves `leaves` of a [`Visit`], until
     /// it returns true (then true).
     fn leaf_packets(&self, leaves: u32, f: impl FnMut(usize, u32) -> bool) -> bool;
@@ -250,24 +270,13 @@ impl Encode for Node8 {
 
 impl WideNode for Node8 {
     const LINES: usize = 4;
+    const LEAVES_LATE: bool = false;
 
     /// The first packet is not known without a look at the slots. (Keeping it in the node's
     /// padding and fetching it here did not pay: soup100k 0.98× on an AVX-512 Xeon; the
-    /// largest leaf's packet, on an AMD EPYC, added nothing to `prefetch_later_leaves`.)
+    /// largest leaf's packet, on an AMD EPYC, added nothing to `prefetch_hit_leaves`.)
     #[inline(always)]
     fn prefetch_leaves(&self, _blocks: *const u8) {}
-
-    /// Each hit leaf slot names its own packet (soup100k 1.02×, docs/performance.md §1).
-    #[inline(always)]
-    fn prefetch_later_leaves(&self, leaves: u32, blocks: *const u8) {
-        let mut later = leaves & leaves.wrapping_sub(1);
-        while later != 0 {
-            let i = later.trailing_zeros() as usize;
-            later &= later - 1;
-            let packet = (self.child[i] & !LEAF) as usize;
-            prefetch(blocks.wrapping_add(packet * PACKET_BYTES), 5);
-        }
-    }
 
     /// `leaves` are the hit leaf slots; each is one packet, all of whose lanes are tested
     /// (unused lanes never hit).
@@ -507,6 +516,7 @@ impl WideNode for QNode8 {
     /// grid1m 1.04× and 1.02×, soup1m 1.03× and 1.05×, sphere1m 1.00× and 1.02× (12 and 20
     /// rounds); 4 lines 1.03×, 0.98×, 0.98× (docs/performance.md §1, "Tiered nodes").
     const LINES: usize = 3;
+    const LEAVES_LATE: bool = true;
 
     /// The node's first leaf packet (packet 0 for a node without leaves, without a branch).
     #[inline(always)]

@@ -124,9 +124,14 @@ impl Accel {
         }
     }
 
-    /// Closest-hit traversal: leaf children are tested as soon as their node is, internal
-    /// children are visited nearest first (sorted by entry distance), and popped entries farther
-    /// than the current hit are skipped.
+    /// Closest-hit traversal: internal children are visited nearest first (sorted by entry
+    /// distance), popped entries farther than the current hit are skipped, and a quantised
+    /// node's hit leaves are tested one step late ([`WideNode::LEAVES_LATE`]), after the next
+    /// node's visit (the last node's when the stack runs out), so that their packets arrive
+    /// meanwhile. The packets are still tested in the order of their nodes' visits, each from
+    /// the t_best of the nodes before it; a node visited only because those leaves were not yet
+    /// tested lies beyond their hit and adds no nearer one, so the hits, ties included, are
+    /// those of testing each node's leaves at once.
     #[inline(always)]
     fn intersect_impl<
         A: WideNode,
@@ -143,6 +148,8 @@ impl Accel {
         stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
         let mut st = Closest {
+            pending: [0; 8],
+            n_pending: 0,
             r: TRay::new(ray),
             t_best: t_max,
             lane_best: u32::MAX,
@@ -214,10 +221,11 @@ impl Accel {
             inner: inner_hits,
             leaves,
         } = node.visit::<ISA, SITE>(&st.r, st.t_best, &mut st.tmins);
-        // the other hit leaves' packets load while the first is tested
-        node.prefetch_later_leaves(leaves, blocks);
+        // The hit leaves' packets: a quantised node's load while the next node is visited, a
+        // full node's (tested below) while the inner children are written.
+        node.prefetch_hit_leaves(leaves, blocks);
         // Inner children onto the stack in slot order (not yet counted in `sp`); their boxes
-        // load while the leaves are tested.
+        // load while the previous node's leaves are tested.
         let sp = st.sp;
         let n_inner = inner_hits.count_ones() as usize;
         if n_inner > 0 {
@@ -229,9 +237,9 @@ impl Accel {
                 tree.prefetch::<N>(e.node);
             }
         }
-        // Leaves first (they can shrink t_best before the inner children are ordered): all
-        // hit leaf children at once, one packet test per 8 lanes; the nearest hit wins, the
-        // lowest lane on ties.
+        // The previous node's late leaves (their packets arrived during this visit), then this
+        // node's: kept for the next step, or tested now.
+        self.test_pending::<MIXED, ISA>(st);
         #[cfg(feature = "bvh-stats")]
         {
             let mut m = leaves;
@@ -240,25 +248,9 @@ impl Accel {
                 m &= m - 1;
             }
         }
-        if leaves != 0 {
-            node.leaf_packets(leaves, |b, lanes| {
-                #[cfg(feature = "bvh-stats")]
-                stats::count(1, lanes.count_ones() as u64);
-                let h = self.test_block::<MIXED, ISA>(b, lanes, &st.r, st.t_best, &mut st.tuv);
-                if h != 0 {
-                    // every hit is nearer than t_best; one hit is the common case
-                    let l = if h & (h - 1) == 0 {
-                        h.trailing_zeros() as usize
-                    } else {
-                        nearest_lane(h, &st.tuv[0])
-                    };
-                    st.t_best = st.tuv[0][l];
-                    st.lane_best = (b * 8 + l) as u32;
-                    st.u_best = st.tuv[1][l];
-                    st.v_best = st.tuv[2][l];
-                }
-                false
-            });
+        st.n_pending = node.hit_packets(leaves, &mut st.pending);
+        if !N::LEAVES_LATE {
+            self.test_pending::<MIXED, ISA>(st);
         }
         // The inner children ordered far to near (stable), and the nearest taken off again to
         // descend into directly. Entries the leaves have put beyond t_best stay and are
@@ -279,6 +271,8 @@ impl Accel {
         // Pop the nearest pending entry still in range.
         loop {
             if st.sp == 0 {
+                // the last node's leaves
+                self.test_pending::<MIXED, ISA>(st);
                 return None;
             }
             st.sp -= 1;
@@ -377,6 +371,8 @@ impl Accel {
         stack: &mut [MaybeUninit<u32>],
     ) -> bool {
         let mut st = AnyHit {
+            pending: [0; 8],
+            n_pending: 0,
             r: TRay::new(ray),
             t_max,
             sp: 0,
@@ -425,8 +421,12 @@ impl Accel {
         st: &mut AnyHit,
         tree: Tree<A, B, TIERED>,
     ) -> Step {
-        node.prefetch_leaves(self.blocks.as_ptr() as *const u8);
+        let blocks = self.blocks.as_ptr() as *const u8;
+        node.prefetch_leaves(blocks);
         let Visit { inner, leaves } = node.visit::<ISA, SITE>(&st.r, st.t_max, &mut st.tmins);
+        if N::LEAVES_LATE {
+            node.prefetch_hit_leaves(leaves, blocks);
+        }
         // inner children on the stack in slot order; the last one is visited next
         let mut m = inner;
         for k in 0..inner.count_ones() as usize {
@@ -436,14 +436,25 @@ impl Accel {
             st.stack[st.sp + k] = MaybeUninit::new(child);
         }
         st.sp += inner.count_ones() as usize;
-        let (r, t_max, tuv) = (&st.r, st.t_max, &mut st.tuv);
-        let hit =
-            |b: usize, lanes: u32| self.test_block::<MIXED, ISA>(b, lanes, r, t_max, tuv) != 0;
-        if leaves != 0 && node.leaf_packets(leaves, hit) {
+        if self.any_pending::<MIXED, ISA>(st) {
             return Step::Hit;
         }
+        if N::LEAVES_LATE {
+            st.n_pending = node.hit_packets(leaves, &mut st.pending);
+        } else {
+            let (r, t_max, tuv) = (&st.r, st.t_max, &mut st.tuv);
+            let hit =
+                |b: usize, lanes: u32| self.test_block::<MIXED, ISA>(b, lanes, r, t_max, tuv) != 0;
+            if leaves != 0 && node.leaf_packets(leaves, hit) {
+                return Step::Hit;
+            }
+        }
         if st.sp == 0 {
-            return Step::Done;
+            return if self.any_pending::<MIXED, ISA>(st) {
+                Step::Hit
+            } else {
+                Step::Done
+            };
         }
         st.sp -= 1;
         // SAFETY: entries below `sp` have been written.
@@ -451,8 +462,49 @@ impl Accel {
     }
 }
 
+impl Accel {
+    /// Whether a packet `st.pending` holds is hit.
+    #[inline(always)]
+    fn any_pending<const MIXED: bool, const ISA: u8>(&self, st: &mut AnyHit) -> bool {
+        let n = std::mem::take(&mut st.n_pending);
+        (0..n).any(|k| {
+            let b = st.pending[k] as usize;
+            self.test_block::<MIXED, ISA>(b, 0xff, &st.r, st.t_max, &mut st.tuv) != 0
+        })
+    }
+
+    /// Test the packets `st.pending` holds, in order: all 8 lanes of each at once; the nearest
+    /// hit wins, the lowest lane on ties.
+    #[inline(always)]
+    fn test_pending<const MIXED: bool, const ISA: u8>(&self, st: &mut Closest) {
+        for k in 0..st.n_pending {
+            let b = st.pending[k] as usize;
+            #[cfg(feature = "bvh-stats")]
+            stats::count(1, 8);
+            let h = self.test_block::<MIXED, ISA>(b, 0xff, &st.r, st.t_best, &mut st.tuv);
+            if h != 0 {
+                // every hit is nearer than t_best; one hit is the common case
+                let l = if h & (h - 1) == 0 {
+                    h.trailing_zeros() as usize
+                } else {
+                    nearest_lane(h, &st.tuv[0])
+                };
+                st.t_best = st.tuv[0][l];
+                st.lane_best = (b * 8 + l) as u32;
+                st.u_best = st.tuv[1][l];
+                st.v_best = st.tuv[2][l];
+            }
+        }
+        st.n_pending = 0;
+    }
+}
+
 /// The state of a closest-hit traversal ([`Accel::intersect_impl`]).
 struct Closest<'a> {
+    /// The packets of the last visited node's hit leaves, tested after the next visit
+    /// ([`Accel::test_pending`]).
+    pending: [u32; 8],
+    n_pending: usize,
     r: TRay,
     t_best: f32,
     lane_best: u32,
@@ -466,6 +518,8 @@ struct Closest<'a> {
 
 /// The state of an any-hit traversal ([`Accel::occluded_impl`]).
 struct AnyHit<'a> {
+    pending: [u32; 8],
+    n_pending: usize,
     r: TRay,
     t_max: f32,
     sp: usize,
