@@ -17,7 +17,8 @@ Goals (--only NAME[,NAME]; default all):
             libembree-dev): at least 1x Embree on the meshes, 2x on cbox
   mitsuba   pt-hero against Mitsuba 3 llvm_ad_spectral `path` on scenes/cornell-box.json
             (256², depth 8, no Russian roulette, 2 threads) and against `volpath` on
-            scenes/cornell-box-medium.json (depth 16); skipped when `import mitsuba` fails
+            scenes/cornell-box-medium.json (depth 16); skipped when `import mitsuba` or
+            `import numpy` fails
   bdpt      per-sample cost of bdpt-forward against pt-hero (cornell-box) and of bdpt-backward
             against bdpt-forward (fluorescent-walls), 2 threads
   scaling   samples/s at 2 threads over 1 thread for every integrator on cornell-box
@@ -26,7 +27,8 @@ Goals (--only NAME[,NAME]; default all):
             (`--no-default-features`, target/lean-*)
 
 Usage (from anywhere):  python3 scripts/performance.py [--rounds 3] [--only bdpt,scaling]
-Mitsuba: pip install mitsuba==3.9.1, apt-get install libllvm19 and
+Mitsuba: pip install mitsuba==3.9.1 numpy (the wheel does not pull in numpy, which
+scripts/mitsuba/cbox.py needs), apt-get install libllvm19 and
 DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so (set here when that file exists).
 """
 
@@ -105,15 +107,33 @@ MACHINE = {"cpu": "unknown", "isa": "unknown"}
 
 
 def cpu_model():
+    """The model name with its family, model and L2 size: virtual machines often report a bare
+    "AMD EPYC" for processors of different generations (docs/performance.md has tables for
+    three of them), and the L2 size decides how much of a tree stays near the core."""
+    fields = {}
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                key, _, value = line.partition(":")
+                key = key.strip()
+                if key in ("model name", "cpu family", "model") and key not in fields:
+                    fields[key] = value.strip()
+                if not line.strip() and fields:
+                    break
     except OSError:
         pass
-    import platform
-    return platform.processor() or platform.machine()
+    if "model name" not in fields:
+        import platform
+        return platform.processor() or platform.machine()
+    extra = []
+    if "cpu family" in fields and "model" in fields:
+        extra.append("family %s model %s" % (fields["cpu family"], fields["model"]))
+    try:
+        with open("/sys/devices/system/cpu/cpu0/cache/index2/size") as f:
+            extra.append("L2 %s a core" % f.read().strip())
+    except OSError:
+        pass
+    return fields["model name"] + (" (%s)" % ", ".join(extra) if extra else "")
 
 
 def stokes_isa(exe):
@@ -138,11 +158,13 @@ def row(goal, what, r, a_name, b_name, target, unit="M samples/s", met=None):
 
 
 def goal_mitsuba(rounds, exe):
-    try:
-        subprocess.run([sys.executable, "-c", "import mitsuba"], check=True,
-                       capture_output=True)
-    except subprocess.CalledProcessError:
-        print("| 2 | Mitsuba 3 not installed (pip install mitsuba==3.9.1): skipped |")
+    # scripts/mitsuba/cbox.py needs numpy too, which the mitsuba wheel does not install
+    missing = [m for m in ("mitsuba", "numpy")
+               if subprocess.run([sys.executable, "-c", "import " + m],
+                                 capture_output=True).returncode != 0]
+    if missing:
+        print("| 2 | %s not installed (pip install mitsuba==3.9.1 numpy): skipped |"
+              % " and ".join(missing))
         return []
     out = []
     # On AVX-512 machines Dr.Jit's LLVM back end generates 16-wide code, and the goals are

@@ -153,7 +153,11 @@ for ((r = 1; r <= rounds; r++)); do
 done
 
 echo
-echo "CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1); stokes instruction set: ${sisa:-unknown} (STOKES_ISA forces a lower one)"
+# family, model and L2 too: virtual machines report a bare "AMD EPYC" for several generations
+cpu_fam=$(sed -n 's/^cpu family[[:space:]]*: //p' /proc/cpuinfo | head -1)
+cpu_mod=$(sed -n 's/^model[[:space:]]*: //p' /proc/cpuinfo | head -1)
+cpu_l2=$(cat /sys/devices/system/cpu/cpu0/cache/index2/size 2>/dev/null)
+echo "CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1) (family ${cpu_fam:-?} model ${cpu_mod:-?}, L2 ${cpu_l2:-?} a core); stokes instruction set: ${sisa:-unknown} (STOKES_ISA forces a lower one)"
 echo "Closest hit, 1 thread, Mrays/s (median over $rounds rounds of the median of $reps passes);"
 echo "build times in ms (median over rounds; Embree device threads=1, stokes on ${STOKES_BUILD_THREADS:-1} thread(s))"
 hdr=$(printf '%-10s %8s' "ray set" "tris")

@@ -32,7 +32,7 @@ With --seeds K>1, K renders with seeds S..S+K-1 are made and the mean and
 standard error of mean Y across seeds are reported as well.
 
 Install (Debian, Python 3):
-  pip install mitsuba==3.9.1        # add --break-system-packages if pip refuses
+  pip install mitsuba==3.9.1 numpy  # add --break-system-packages if pip refuses
   apt-get update && apt-get install -y libllvm19     # for the llvm_* variants
   export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
 
