@@ -268,7 +268,7 @@ impl Accel {
                 return Some(top.node);
             }
         }
-        // Pop the nearest pending entry still in range.
+        // Pop the nearest stacked entry still in range (`Closest::pending` are leaf packets).
         loop {
             if st.sp == 0 {
                 // the last node's leaves
@@ -518,6 +518,8 @@ struct Closest<'a> {
 
 /// The state of an any-hit traversal ([`Accel::occluded_impl`]).
 struct AnyHit<'a> {
+    /// The packets of the last visited quantised node's hit leaves, tested after the next
+    /// visit ([`Accel::any_pending`]); a full node's are tested at once.
     pending: [u32; 8],
     n_pending: usize,
     r: TRay,
