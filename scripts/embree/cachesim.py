@@ -24,7 +24,9 @@ The simulated caches are 8-way with 64-byte lines, and there are two levels: the
 processor's L2, and what misses it is served by the L3 (not simulated; soup100k's whole tree fits
 any L3 of these machines). Hardware and software prefetches are not simulated: a miss here is a
 line the ray had to have, whether a prefetch hid its wait or not. valgrind does not emulate
-AVX-512, so both run their AVX2 kernels whatever the processor (stokes prints which).
+AVX-512, so both run their AVX2 kernels whatever the processor (stokes prints which). Masked loads
+(`vmaskmovps`) are not counted as reads by valgrind's simulator: a kernel that loads with them
+cannot be judged here.
 About a minute a set and harness for soup100k's 250 000 rays (traced twice by each harness: the
 timed pass and the check).
 """
