@@ -43,6 +43,7 @@ import tempfile
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 EVENTS = ("Ir", "Dr", "D1mr", "DLmr")
+FIELDS = ("instructions", "data_reads", "l1_misses", "l2_misses")
 
 
 def fail(msg):
@@ -121,9 +122,12 @@ def simulate(name, cmd, toggle, callee, l1, l2, env=None):
         isa = re.search(r"^isa (\S+)", p.stderr, re.M)
     if calls == 0:
         fail(f"{name}: no call into {toggle} was counted")
-    row = {k: v / calls for k, v in ev.items()}
-    row["rays"] = calls
-    row["isa"] = isa.group(1) if isa else "avx2"
+    # per ray: instructions, data reads, L1 and L2 data read misses (callgrind's Ir, Dr, D1mr,
+    # DLmr)
+    row = {k: ev[e] / calls for k, e in zip(FIELDS, EVENTS)}
+    row["calls"] = calls
+    # stokes prints its instruction set; Embree does not say which of its kernels it took
+    row["isa"] = isa.group(1) if isa else None
     return row
 
 
@@ -202,12 +206,12 @@ def main():
                 rows.append(dict(set=s, l2=label(l2), harness="Embree 3 medium", **r))
 
     print(f"Closest hit, per ray, simulated: L1 {label(l1)} (data and instructions), L2 as listed; "
-          f"8-way, 64-byte lines; stokes' instruction set {rows[0]['isa']}")
+          f"8-way, 64-byte lines; stokes' instruction set {rows[0]['isa'] or 'not printed'}")
     print(f"{'ray set':<10} {'L2':>5} {'instructions':>12} {'data reads':>10} {'L1 misses':>9} "
           f"{'L2 misses':>9}  harness")
     for r in rows:
-        print(f"{r['set']:<10} {r['l2']:>5} {r['Ir']:12.0f} {r['Dr']:10.0f} {r['D1mr']:9.1f} "
-              f"{r['DLmr']:9.1f}  {r['harness']}")
+        print(f"{r['set']:<10} {r['l2']:>5} {r['instructions']:12.0f} {r['data_reads']:10.0f} "
+              f"{r['l1_misses']:9.1f} {r['l2_misses']:9.1f}  {r['harness']}")
     os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
     with open(a.json, "w") as f:
         json.dump(rows, f, indent=1)
