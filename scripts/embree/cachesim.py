@@ -131,6 +131,19 @@ def simulate(name, cmd, toggle, callee, l1, l2, env=None):
     return row
 
 
+def embree_flags():
+    """The compiler flags for Embree 3 as run.sh finds it: from pkg-config, else Debian's
+    header with -lembree3; None when neither is there."""
+    if shutil.which("pkg-config"):
+        r = subprocess.run(["pkg-config", "--cflags", "--libs", "embree3"],
+                           capture_output=True, text=True)
+        if r.returncode == 0:
+            return r.stdout.split()
+    if os.path.exists("/usr/include/embree3/rtcore.h"):
+        return ["-lembree3"]
+    return None
+
+
 def main():
     ap = argparse.ArgumentParser(add_help=False)
     ap.add_argument("--install", action="store_true")
@@ -155,7 +168,8 @@ def main():
     l2s = [size_bytes(s, "--l2") for s in l2s.split(",")]
     sets = a.sets or ["soup100k"]
 
-    have_embree = os.path.exists("/usr/include/embree3/rtcore.h")
+    eflags = embree_flags()
+    have_embree = eflags is not None
     missing = [p for p, ok in (("valgrind", shutil.which("valgrind")),
                                ("libembree-dev", a.no_embree or have_embree)) if not ok]
     if missing and a.install:
@@ -180,8 +194,9 @@ def main():
     ebin = os.path.join(TARGET, "embree-raybench")
     if not a.no_embree:
         src = os.path.join(ROOT, "scripts", "embree", "raybench.c")
-        if subprocess.run(["cc", "-O3", "-march=native", "-Wall", src, "-o", ebin, "-lembree3",
-                           "-lm"]).returncode != 0:
+        eflags = embree_flags() or ["-lembree3"]
+        if subprocess.run(["cc", "-O3", "-march=native", "-Wall", src, "-o", ebin] + eflags
+                          + ["-lm"]).returncode != 0:
             fail(f"cc {os.path.relpath(src, ROOT)} failed")
 
     n = str(a.n) if a.n else "100000000"
