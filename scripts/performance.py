@@ -275,7 +275,7 @@ def parse_embree(text, name):
     medians = paired = None
     for line in text.splitlines():
         f = line.split()
-        if len(f) == 7 and f[0] == name:
+        if len(f) == 7 and f[0] == name and f[1].isdigit():
             # ray set, tris, Embree medium, Embree high, stokes, stokes/medium, stokes/high
             medians = (float(f[2]), float(f[4]))
         if len(f) > 2 and f[0] == name and f[1] == "medium":

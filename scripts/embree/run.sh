@@ -4,17 +4,21 @@
 # exits 0 (skipped).
 #
 #   scripts/embree/run.sh [--install] [--rounds N] [--reps N] [--quality Q[,Q]] [--pin CPU]
-#                         [RAYSET ...]
+#                         [--control] [RAYSET ...]
 #
 #   --install     apt-get install libembree-dev (Embree 3) first if it is missing
-#   --rounds N    alternating Embree/stokes rounds (default 3); the first table shows the median
+#   --rounds N    rounds of Embree and stokes (default 3); the first table shows the median
 #                 over rounds of each process's median, the second the paired ratio: the median
 #                 of the per-round ratios stokes / Embree (each round's two processes run one
-#                 right after the other, so a slow spell of a shared machine hits both), their
-#                 range and how many rounds reached the goal (docs/performance.md, "The goals")
+#                 right after the other, so a slow spell of a shared machine hits both; which
+#                 runs first turns from round to round), their range and how many rounds
+#                 reached the goal (docs/performance.md, "The goals")
 #   --reps N      timed passes over all rays inside each process (default 5)
 #   --quality Q   Embree build qualities: high, medium, low, comma separated (default high,medium)
 #   --pin CPU     run both harnesses under `taskset -c CPU`
+#   --control     also run stokes a second time each round and print the paired ratio of the
+#                 two stokes runs (an A/A control: how much this run's ratios move with no
+#                 change at all; on a noisy machine, read the verdicts against it)
 #   RAYSET        names in benches/data/rays or target/rays (examples/make_rayset writes soup1m,
 #                 sphere1m, grid1m there); default: cbox soup100k and every other *_tris.bin
 #
@@ -28,24 +32,34 @@
 # obvhs preset, see examples/raybench.rs) to time that build, EMBREE_CONFIG to change the Embree
 # device config (default "threads=1"; e.g. "threads=1,isa=avx2").
 set -u
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../.." || exit 1
 
 install=0
 rounds=3
 reps=5
 quality=high,medium
 pin=()
+control=0
 sets=()
+# an option's value must follow it
+need() { [ $# -ge 2 ] || { echo "$1 needs a value (see --help)" >&2; exit 2; }; }
 while [ $# -gt 0 ]; do
   case "$1" in
     --install) install=1; shift ;;
-    --rounds) rounds="$2"; shift 2 ;;
-    --reps) reps="$2"; shift 2 ;;
-    --quality) quality="$2"; shift 2 ;;
-    --pin) pin=(taskset -c "$2"); shift 2 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    --rounds) need "$@"; rounds="$2"; shift 2 ;;
+    --reps) need "$@"; reps="$2"; shift 2 ;;
+    --quality) need "$@"; quality="$2"; shift 2 ;;
+    --pin) need "$@"; pin=(taskset -c "$2"); shift 2 ;;
+    --control) control=1; shift ;;
+    -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit 0 ;;
     -*) echo "unknown option $1 (see --help)" >&2; exit 2 ;;
     *) sets+=("$1"); shift ;;
+  esac
+done
+
+for v in "rounds=$rounds" "reps=$reps"; do
+  case "${v#*=}" in
+    '' | *[!0-9]* | 0) echo "--${v%%=*} ${v#*=}: not a positive whole number" >&2; exit 2 ;;
   esac
 done
 
@@ -87,7 +101,7 @@ done
 mkdir -p "$target"
 ebin=$target/embree-raybench
 if pkg-config --exists embree3 2>/dev/null; then
-  eflags=($(pkg-config --cflags --libs embree3))
+  read -r -a eflags <<<"$(pkg-config --cflags --libs embree3)"
 else
   eflags=(-lembree3)
 fi
@@ -110,45 +124,74 @@ IFS=, read -r -a quals <<<"$quality"
 log=$target/embree-raybench.log
 : >"$log"
 echo "$(nproc) CPUs, load average: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log"
-declare -A emed smed sbuild squal ebuild echk schk ntris eround pratio
+declare -A emed smed sbuild squal ebuild echk schk ntris eround pratio sround cround cratio
 sisa=
 checks=()
+# Embree on set $1 in round $2 (all requested qualities in one process, one scene each).
+run_embree() {
+  local s=$1 r=$2 out tag qual rest q m
+  out=$("${pin[@]}" "$ebin" -d "$(data_of "$s")" -c "${EMBREE_CONFIG-threads=1}" -q "$quality" \
+    -r "$reps" "$s") || exit 1
+  printf '%s\n' "$out" >>"$log"
+  while read -r tag _ qual rest; do
+    q=${qual#quality=}
+    case "$tag" in
+      embree)
+        m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$rest")
+        emed[$s,$q]+=" $m"
+        eround[$s,$q]=$m
+        ebuild[$s,$q]+=" $(sed -n 's/.*build_ms=\([0-9.]*\).*/\1/p' <<<"$rest")"
+        echk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$rest")
+        ntris[$s]=$(sed -n 's/.*tris=\([0-9]*\).*/\1/p' <<<"$rest")
+        echo "round $r: embree $s $q median $m Mrays/s" ;;
+      check)
+        [ "$r" = 1 ] && checks+=("$s $q: $rest") ;;
+    esac
+  done <<<"$out"
+}
+
+# stokes on set $1 in round $2; $3 = control for the second, control process (--control).
+run_stokes() {
+  local s=$1 r=$2 out m
+  out=$(env -u LEAF -u REINS -u NOSPLIT -u LAYOUT PRESET="${STOKES_PRESET:-auto}" \
+    RAYON_NUM_THREADS="${STOKES_BUILD_THREADS:-1}" \
+    "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
+  printf '%s\n' "$out" >>"$log"
+  m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$out")
+  if [ "${3-}" = control ]; then
+    cround[$s]=$m
+    echo "round $r: stokes $s median $m Mrays/s (control)"
+    return
+  fi
+  sround[$s]=$m
+  smed[$s]+=" $m"
+  sbuild[$s]+=" $(sed -n 's/^build [a-z_]* \([0-9.]*\) ms.*/\1/p' <<<"$out")"
+  squal[$s]=$(sed -n 's/^build \([a-z_]*\) [0-9.]* ms.*/\1/p' <<<"$out")
+  schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
+  sisa=$(sed -n 's/^isa //p' <<<"$out")
+  echo "round $r: stokes $s median $m Mrays/s"
+}
+
+# Each round runs the processes one right after the other, in an order that turns from round to
+# round (Embree first in round 1, stokes first in round 2, ...), so that neither side always
+# follows the other.
+order=(embree stokes)
+[ "$control" = 1 ] && order+=(control)
 for ((r = 1; r <= rounds; r++)); do
   for s in "${sets[@]}"; do
-    # Embree (all requested qualities in one process, one scene each).
-    out=$("${pin[@]}" "$ebin" -d "$(data_of "$s")" -c "${EMBREE_CONFIG-threads=1}" -q "$quality" \
-      -r "$reps" "$s") || exit 1
-    printf '%s\n' "$out" >>"$log"
-    while read -r tag set qual rest; do
-      q=${qual#quality=}
-      case "$tag" in
-        embree)
-          m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$rest")
-          emed[$s,$q]+=" $m"
-          eround[$s,$q]=$m
-          ebuild[$s,$q]+=" $(sed -n 's/.*build_ms=\([0-9.]*\).*/\1/p' <<<"$rest")"
-          echk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$rest")
-          ntris[$s]=$(sed -n 's/.*tris=\([0-9]*\).*/\1/p' <<<"$rest")
-          echo "round $r: embree $s $q median $m Mrays/s" ;;
-        check)
-          [ "$r" = 1 ] && checks+=("$s $q: $rest") ;;
+    for ((k = 0; k < ${#order[@]}; k++)); do
+      case "${order[$(((r - 1 + k) % ${#order[@]}))]}" in
+        embree) run_embree "$s" "$r" ;;
+        stokes) run_stokes "$s" "$r" ;;
+        control) run_stokes "$s" "$r" control ;;
       esac
-    done <<<"$out"
-    # stokes
-    out=$(env -u LEAF -u REINS -u NOSPLIT -u LAYOUT PRESET="${STOKES_PRESET:-auto}" \
-      RAYON_NUM_THREADS="${STOKES_BUILD_THREADS:-1}" \
-      "${pin[@]}" "$sbin" "$s" 100000000 "$reps" 2>&1) || { echo "$out" >&2; exit 1; }
-    printf '%s\n' "$out" >>"$log"
-    m=$(sed -n 's/.* median \([0-9.]*\) Mrays.*/\1/p' <<<"$out")
-    smed[$s]+=" $m"
-    sbuild[$s]+=" $(sed -n 's/^build [a-z_]* \([0-9.]*\) ms.*/\1/p' <<<"$out")"
-    squal[$s]=$(sed -n 's/^build \([a-z_]*\) [0-9.]* ms.*/\1/p' <<<"$out")
-    schk[$s]=$(sed -n 's/.* chk \([0-9.]*\).*/\1/p' <<<"$out")
-    sisa=$(sed -n 's/^isa //p' <<<"$out")
-    echo "round $r: stokes $s median $m Mrays/s"
-    for q in "${quals[@]}"; do
-      pratio[$s,$q]+=" $(awk -v a="$m" -v b="${eround[$s,$q]}" 'BEGIN { printf "%.4f", a / b }')"
     done
+    for q in "${quals[@]}"; do
+      pratio[$s,$q]+=" $(awk -v a="${sround[$s]}" -v b="${eround[$s,$q]}" 'BEGIN { printf "%.4f", a / b }')"
+    done
+    if [ "$control" = 1 ]; then
+      cratio[$s]+=" $(awk -v a="${cround[$s]}" -v b="${sround[$s]}" 'BEGIN { printf "%.4f", a / b }')"
+    fi
   done
 done
 
@@ -191,6 +234,18 @@ for s in "${sets[@]}"; do
   done
   echo "$line"
 done
+if [ "$control" = 1 ]; then
+  echo "Control: stokes / stokes, the same binary twice a round (median of the $rounds per-round ratios;"
+  echo "quartiles; range): how far this run's ratios move without any change"
+  for s in "${sets[@]}"; do
+    # shellcheck disable=SC2086
+    printf '%s\n' ${cratio[$s]} | sort -g | awk -v s="$s" \
+      '{ a[NR] = $1 }
+       END { med = NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2
+             printf "%-10s control %.3f (quartiles %.3f-%.3f; range %.3f-%.3f)\n", s, med,
+               a[int(NR / 4) + 1], a[int((3 * NR + 3) / 4)], a[1], a[NR] }'
+  done
+fi
 echo
 printf '%-10s' "build ms"
 for q in "${quals[@]}"; do printf ' %13s' "Embree $q"; done
