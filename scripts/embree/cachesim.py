@@ -168,8 +168,7 @@ def main():
     l2s = [size_bytes(s, "--l2") for s in l2s.split(",")]
     sets = a.sets or ["soup100k"]
 
-    eflags = embree_flags()
-    have_embree = eflags is not None
+    have_embree = embree_flags() is not None
     missing = [p for p, ok in (("valgrind", shutil.which("valgrind")),
                                ("libembree-dev", a.no_embree or have_embree)) if not ok]
     if missing and a.install:
@@ -194,6 +193,7 @@ def main():
     ebin = os.path.join(TARGET, "embree-raybench")
     if not a.no_embree:
         src = os.path.join(ROOT, "scripts", "embree", "raybench.c")
+        # looked up again: --install may have just installed it
         eflags = embree_flags() or ["-lembree3"]
         if subprocess.run(["cc", "-O3", "-march=native", "-Wall", src, "-o", ebin] + eflags
                           + ["-lm"]).returncode != 0:
