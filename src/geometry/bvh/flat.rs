@@ -43,7 +43,7 @@ impl Accel {
     /// stored piece by piece, it would wait for the stores to complete (a failed store-to-load
     /// forward; pt-hero on cornell-box ran 4–6 % slower that way).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn intersect_flat(
         &self,
@@ -88,7 +88,7 @@ impl Accel {
     /// [`Self::intersect_flat`]. Inlined into its entry point, so the ray stays in registers
     /// whatever the signature.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1")]
     fn intersect_flat_lanes(&self, o: [f32; 3], d: [f32; 3], t_max: f32) -> Option<Hit> {
         use std::arch::x86_64::*;
         let mut bt = _mm256_set1_ps(t_max);
@@ -140,7 +140,7 @@ impl Accel {
 
     /// Any hit over the flat blocks, the ray in registers as for [`Self::intersect_flat`].
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,bmi1")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn occluded_flat(
         &self,
@@ -164,7 +164,7 @@ impl Accel {
         /// as fast, the 512-bit instructions slowing the shading code around them;
         /// docs/performance.md §1).
         intersect_flat_avx512,
-        "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
+        "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1",
         Option<Hit>,
         |a, ray, t_max| {
             a.intersect_flat_lanes(ray.o.to_array(), ray.d.to_array(), t_max)
@@ -174,7 +174,7 @@ impl Accel {
     ray_entry!(
         /// [`Self::occluded_flat`] compiled for AVX-512, as [`Self::intersect_flat_avx512`].
         occluded_flat_avx512,
-        "avx512f,avx512vl,avx512dq,avx2,popcnt,bmi1",
+        "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1",
         bool,
         |a, ray, t_max| {
             let (o, d) = (ray.o, ray.d);
