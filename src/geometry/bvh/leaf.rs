@@ -318,25 +318,23 @@ impl Accel {
     }
 }
 
-/// [`Accel::flat_block`] without AVX2: the same operations in the same order, lane by lane, so
-/// the results are bit-identical.
+/// [`Accel::flat_block`] without AVX2: [`Prim::intersect_triangle`] lane by lane, which performs
+/// the same operations in the same order, so the results are bit-identical.
 #[inline(always)]
 fn block_portable(blk: &TriBlock, r: &TRay, t_max: f32, out: &mut [[f32; 8]; 3]) -> u32 {
     let mut hits = 0;
     for l in 0..8 {
         let row = |v: &[[f32; 8]; 3]| Vec3A::new(v[0][l], v[1][l], v[2][l]);
-        let (a, b, c) = (row(&blk.a), row(&blk.b), row(&blk.c));
-        // `Prim::intersect_triangle` with the normal computed (`Prim::triangle`)
-        let co = a - r.o;
-        let rr = cross(r.d, co);
-        let n = cross(b, c);
-        let inv_det = 1.0 / dot(r.d, n);
-        let u = dot(rr, c) * inv_det;
-        let v = dot(rr, b) * inv_det;
-        let w = 1.0 - u - v;
-        let t = dot(co, n) * inv_det;
-        let neg = (u.to_bits() | v.to_bits() | w.to_bits()) & 0x8000_0000 != 0;
-        if !neg && t > 0.0 && t < t_max {
+        let (b, c) = (row(&blk.b), row(&blk.c));
+        // the lane's record as `Prim::triangle` makes it (the normal computed, as in the test)
+        let p = Prim {
+            a: row(&blk.a),
+            b,
+            c,
+            d: cross(b, c),
+        };
+        let (t, u, v) = p.intersect_triangle(r);
+        if t > 0.0 && t < t_max {
             hits |= 1 << l;
             out[0][l] = t;
             out[1][l] = u;
