@@ -168,8 +168,9 @@ fn every_pass_film_holds_its_splats() {
 }
 
 /// Every instruction set the CPU has traces the same hits, so fixed-seed images are the same to
-/// the bit: on the flat loop of a tiny scene (cornell-box), a mesh (uv-sphere), spheres
-/// (green-spheres) and a scene with media.
+/// the bit: on the flat loop of a tiny scene (cornell-box), of tiny scenes with spheres
+/// (uv-sphere, green-spheres; the portable path traverses their trees), a tree of triangles
+/// and spheres (hero-vs-mono-checker, too many spheres for the flat loop) and a scene with media.
 #[test]
 fn every_instruction_set_renders_the_same_image() {
     use stokes::geometry::Isa;
@@ -177,6 +178,7 @@ fn every_instruction_set_renders_the_same_image() {
         "scenes/cornell-box.json",
         "scenes/uv-sphere.json",
         "scenes/green-spheres.json",
+        "scenes/hero-vs-mono-checker.json",
         "scenes/media-walls-fog.json",
     ] {
         let mut scene = small(path);

@@ -41,7 +41,7 @@ pub fn inspect(path: &Path) -> Result<(), Error> {
         s.accel.node_layout(),
         bytes as f64 / 1e6,
         if s.accel.is_flat() {
-            "; traced as one flat loop over the triangles"
+            "; traced as one flat loop over the primitives"
         } else {
             ""
         }

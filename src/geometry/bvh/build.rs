@@ -8,6 +8,7 @@ use obvhs::{
 use rayon::prelude::*;
 
 use super::collapse::{Plan, collapse};
+use super::flat::Flat;
 use super::leaf::{Prim, TriBlock};
 use super::nodes::{FULL_NODES_MAX, Node8, QNode8};
 use super::{Accel, BuildQuality, Isa, Kernel, Layout, Nodes, PagedArray};
@@ -62,7 +63,7 @@ impl Accel {
                 sah: [0.0; 2],
                 isa: Isa::active(),
                 kernel: Kernel::Empty,
-                flat: Vec::new(),
+                flat: Flat::default(),
                 quality: None,
                 build_seconds: 0.0,
             };
@@ -143,7 +144,7 @@ impl Accel {
             sah,
             isa: Isa::active(),
             kernel: Kernel::Empty,
-            flat: Self::flat_blocks(triangles, spheres),
+            flat: Flat::new(triangles, spheres),
             quality: None,
             build_seconds: start.elapsed().as_secs_f64(),
         }

@@ -1,12 +1,21 @@
-//! The flat 8-wide loops that trace tiny triangle-only scenes without a traversal (AVX2, and the
-//! same compiled for AVX-512, whose closest hit keeps each lane's nearest hit in registers).
+//! The flat loops that trace tiny scenes without a traversal: the triangles 8 at a time (AVX2,
+//! and the same compiled for AVX-512, whose closest hit keeps each lane's nearest hit in
+//! registers), then the few spheres one by one, in the order and with the tests of a linear scan.
+
+use glam::Vec3A;
 
 use super::leaf::{Prim, TriBlock};
 use super::{Accel, Isa};
 use crate::geometry::{Hit, Sphere, Triangle};
 
-/// Largest triangle-only scene traced with the flat loop instead of the BVH.
+/// Largest number of triangles of a scene traced with the flat loop instead of the BVH.
 const FLAT_MAX: usize = 64;
+
+/// Largest number of spheres of a scene traced with the flat loop, and of triangles beside them:
+/// a sphere is one scalar test a ray, and the tree of a scene with spheres skips most of the
+/// primitives a flat loop tests (counted in docs/performance.md §1, "Tiny scenes with spheres").
+const FLAT_SPHERES_MAX: usize = 4;
+const FLAT_MAX_WITH_SPHERES: usize = 32;
 
 /// A packet of the flat loop of tiny scenes, with its normals stored: there the data stay in
 /// the L1 cache and the arithmetic decides.
@@ -17,12 +26,35 @@ pub(super) struct FlatBlock {
     n: [[f32; 8]; 3],
 }
 
-impl Accel {
-    pub(super) fn flat_blocks(triangles: &[Triangle], spheres: &[Sphere]) -> Vec<FlatBlock> {
-        if !spheres.is_empty() || triangles.len() > FLAT_MAX || !Isa::Avx2.supported() {
-            return Vec::new();
+/// The primitives of a scene small enough for the flat loops (at most [`FLAT_MAX`] triangles,
+/// or [`FLAT_MAX_WITH_SPHERES`] and at most [`FLAT_SPHERES_MAX`] spheres; AVX2 or AVX-512
+/// only): the triangles in their original order, 8 a packet, then the spheres, whose ids follow
+/// the triangles'.
+#[derive(Default)]
+pub(super) struct Flat {
+    /// Whether the scene is traced this way.
+    pub(super) on: bool,
+    blocks: Vec<FlatBlock>,
+    spheres: Vec<Prim>,
+    /// The first sphere's primitive id (the number of triangles).
+    sphere_base: u32,
+}
+
+impl Flat {
+    pub(super) fn new(triangles: &[Triangle], spheres: &[Sphere]) -> Flat {
+        let max = if spheres.is_empty() {
+            FLAT_MAX
+        } else {
+            FLAT_MAX_WITH_SPHERES
+        };
+        if triangles.len() > max
+            || spheres.len() > FLAT_SPHERES_MAX
+            || triangles.len() + spheres.len() == 0
+            || !Isa::Avx2.supported()
+        {
+            return Flat::default();
         }
-        triangles
+        let blocks = triangles
             .chunks(8)
             .map(|chunk| {
                 let mut blk = FlatBlock::default();
@@ -35,10 +67,52 @@ impl Accel {
                 }
                 blk
             })
-            .collect()
+            .collect();
+        Flat {
+            on: true,
+            blocks,
+            spheres: spheres.iter().map(Prim::sphere).collect(),
+            sphere_base: triangles.len() as u32,
+        }
     }
 
-    /// Closest hit over the flat blocks (a scene of at most `FLAT_MAX` triangles). The ray
+    /// The nearest sphere hit in (0, `t_best`), if any, else `best`: the spheres in order, each
+    /// taking the hit only if strictly nearer, as `brute_force_intersect` does.
+    #[inline(always)]
+    fn nearest_sphere(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        mut best: Option<Hit>,
+        mut t_best: f32,
+    ) -> Option<Hit> {
+        for (i, s) in self.spheres.iter().enumerate() {
+            let t = s.intersect_sphere(o, d, t_best);
+            if t > 0.0 && t < t_best {
+                t_best = t;
+                best = Some(Hit {
+                    t,
+                    prim: self.sphere_base + i as u32,
+                    u: 0.0,
+                    v: 0.0,
+                });
+            }
+        }
+        best
+    }
+
+    /// Whether a sphere is hit in (0, `t_max`).
+    #[inline(always)]
+    fn any_sphere(&self, o: Vec3A, d: Vec3A, t_max: f32) -> bool {
+        self.spheres.iter().any(|s| {
+            let t = s.intersect_sphere(o, d, t_max);
+            t > 0.0 && t < t_max
+        })
+    }
+}
+
+impl Accel {
+    /// Closest hit over the flat blocks, then the spheres ([`Flat`]). The ray
     /// comes in registers, not behind a reference: loaded whole from a ray its caller has just
     /// stored piece by piece, it would wait for the stores to complete (a failed store-to-load
     /// forward; pt-hero on cornell-box ran 4–6 % slower that way).
@@ -59,7 +133,7 @@ impl Accel {
         let mut best: Option<Hit> = None;
         let mut t_best = t_max;
         let mut tuv = [[0.0f32; 8]; 3];
-        for (k, blk) in self.flat.iter().enumerate() {
+        for (k, blk) in self.flat.blocks.iter().enumerate() {
             // Unused lanes are zero and never hit.
             let mut hits = Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_best, Some(&mut tuv));
             while hits != 0 {
@@ -77,7 +151,8 @@ impl Accel {
                 }
             }
         }
-        best
+        let (o, d) = (Vec3A::from_array(o), Vec3A::from_array(d));
+        self.flat.nearest_sphere(o, d, best, t_best)
     }
 
     /// Closest hit over the flat blocks on the AVX-512 path: each lane keeps its nearest hit
@@ -94,7 +169,7 @@ impl Accel {
         let mut bt = _mm256_set1_ps(t_max);
         let (mut bu, mut bv) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         let mut bk = _mm256_setzero_ps();
-        for (k, blk) in self.flat.iter().enumerate() {
+        for (k, blk) in self.flat.blocks.iter().enumerate() {
             // Unused lanes are zero and never hit; a lane takes a hit only if strictly nearer,
             // so the earlier block keeps a tie.
             let (ok, neg, t, u, v) = Self::block_lanes(&blk.tri, Some(&blk.n), o, d, bt);
@@ -110,8 +185,9 @@ impl Accel {
         let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
         let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
         let t_best = _mm256_cvtss_f32(m);
+        let (ov, dv) = (Vec3A::from_array(o), Vec3A::from_array(d));
         if !(t_best < t_max) {
-            return None;
+            return self.flat.nearest_sphere(ov, dv, None, t_max);
         }
         let mut near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(bt, m)) as u32;
         let (mut uv, mut ks) = ([[0.0f32; 8]; 2], [0u32; 8]);
@@ -130,15 +206,17 @@ impl Accel {
                 (best, lane) = (prim, l);
             }
         }
-        Some(Hit {
+        let hit = Hit {
             t: t_best,
             prim: best,
             u: uv[0][lane],
             v: uv[1][lane],
-        })
+        };
+        self.flat.nearest_sphere(ov, dv, Some(hit), t_best)
     }
 
-    /// Any hit over the flat blocks, the ray in registers as for [`Self::intersect_flat`].
+    /// Any hit over the flat blocks and the spheres, the ray in registers as for
+    /// [`Self::intersect_flat`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
     #[allow(clippy::too_many_arguments)]
@@ -154,8 +232,12 @@ impl Accel {
     ) -> bool {
         let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
         self.flat
+            .blocks
             .iter()
             .any(|blk| Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_max, None) != 0)
+            || self
+                .flat
+                .any_sphere(Vec3A::from_array(o), Vec3A::from_array(d), t_max)
     }
 
     ray_entry!(

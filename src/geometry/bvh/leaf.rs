@@ -83,14 +83,15 @@ impl Prim {
     /// Nearest root in `(0, t_max)` of a ray/sphere intersection, using the numerically robust
     /// form of Ray Tracing Gems, ch. 7 (discriminant from the closest-approach vector and the
     /// `q = b + sign(b) sqrt(...)` root pair). Returns NaN/inf/<=0 on miss.
+    /// The ray is its origin `o` and direction `d`.
     #[inline(always)]
-    fn intersect_sphere(&self, r: &TRay, t_max: f32) -> f32 {
+    pub(super) fn intersect_sphere(&self, o: Vec3A, d: Vec3A, t_max: f32) -> f32 {
         let r2 = self.b.y;
-        let f = r.o - self.a;
-        let a = r.d.length_squared();
-        let b = -f.dot(r.d); // b' (half of -b in the textbook form)
+        let f = o - self.a;
+        let a = d.length_squared();
+        let b = -f.dot(d); // b' (half of -b in the textbook form)
         let c = f.length_squared() - r2;
-        let l = f + (b / a) * r.d;
+        let l = f + (b / a) * d;
         let disc = r2 - l.length_squared();
         if disc < 0.0 {
             return f32::NAN;
@@ -306,7 +307,7 @@ impl Accel {
         while s != 0 {
             let l = s.trailing_zeros() as usize;
             s &= s - 1;
-            let t = blk.sphere(l).intersect_sphere(r, t_max);
+            let t = blk.sphere(l).intersect_sphere(r.o, r.d, t_max);
             if t > 0.0 && t < t_max {
                 hits |= 1 << l;
                 tuv[0][l] = t;
@@ -368,7 +369,7 @@ pub fn brute_force_intersect(
         }
     }
     for (i, s) in spheres.iter().enumerate() {
-        let t = Prim::sphere(s).intersect_sphere(&r, t_best);
+        let t = Prim::sphere(s).intersect_sphere(r.o, r.d, t_best);
         if t > 0.0 && t < t_best {
             t_best = t;
             best = Some(Hit {

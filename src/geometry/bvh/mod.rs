@@ -84,7 +84,7 @@ mod leaf;
 mod nodes;
 mod pages;
 mod traverse;
-use flat::FlatBlock;
+use flat::Flat;
 pub use isa::{ISA_VAR, Isa, IsaError};
 use leaf::TriBlock;
 pub use leaf::brute_force_intersect;
@@ -216,10 +216,10 @@ pub struct Accel {
     /// The tree's node visits and packet tests per ray through the root box, in the
     /// surface-area model (`Collapsed::sah`).
     sah: [f64; 2],
-    /// Tiny triangle-only scenes (<= `FLAT_MAX`, AVX2 and AVX-512 only): all triangles in
-    /// original order, tested with a flat 8-wide loop (faster than any traversal at this
-    /// size).
-    flat: Vec<FlatBlock>,
+    /// Tiny scenes (a few dozen triangles and a few spheres, AVX2 and AVX-512 only): all
+    /// primitives in original order, tested with a flat loop, 8 triangles at a time (faster
+    /// than any traversal at this size).
+    flat: Flat,
     /// The quality asked for and the one it was built with (`Medium` or `High`); `None` for
     /// explicit obvhs parameters. Then the build's wall time in seconds.
     quality: Option<(BuildQuality, BuildQuality)>,
@@ -241,7 +241,7 @@ enum Kernel {
 
 impl Kernel {
     fn of(a: &Accel) -> Kernel {
-        let flat = !a.flat.is_empty();
+        let flat = a.flat.on;
         match a.isa {
             _ if a.nodes.is_empty() => Kernel::Empty,
             Isa::Avx512 if flat => Kernel::Avx512Flat,
@@ -267,7 +267,7 @@ impl Accel {
 
     /// Whether rays are traced with the flat loop of tiny scenes instead of the BVH.
     pub fn is_flat(&self) -> bool {
-        !self.flat.is_empty() && self.isa >= Isa::Avx2
+        self.flat.on && self.isa >= Isa::Avx2
     }
 
     /// The instruction set rays are traced with.

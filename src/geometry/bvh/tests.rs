@@ -393,6 +393,33 @@ fn tiny_triangle_scenes() {
     }
 }
 
+/// Tiny scenes with a few spheres take the flat loop too (up to `FLAT_SPHERES_MAX` spheres
+/// and `FLAT_MAX_WITH_SPHERES` triangles, on AVX2 and AVX-512), spheres alone as well; with more
+/// they take the tree. Either way: brute
+/// force's hits, on every instruction set (the portable one traverses the tree).
+#[test]
+fn tiny_scenes_with_spheres() {
+    for (n, m, flat, seed) in [
+        (12, 2, true, 41),
+        (0, 1, true, 42),
+        (5, 4, true, 43),
+        (32, 4, true, 44),
+        (1, 3, true, 45),
+        (12, 5, false, 46),
+        (33, 1, false, 47),
+        (64, 0, true, 48),
+    ] {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let (t, s) = scene(&mut rng, n, m);
+        let mut accel = Accel::build(&t, &s);
+        if Isa::Avx2.supported() {
+            accel.set_isa(Isa::Avx2).unwrap();
+            assert_eq!(accel.is_flat(), flat, "{n} triangles, {m} spheres");
+        }
+        check(&t, &s, 3000, seed + 100);
+    }
+}
+
 /// Triangles shrinking geometrically towards a point build a tree too deep for the
 /// traversal's stack array, so the heap stack is used, in a scene without spheres: rays at
 /// each triangle's scale hit what brute force hits, in both node layouts. (The heap-stack
