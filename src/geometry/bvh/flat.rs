@@ -15,6 +15,7 @@ const FLAT_MAX: usize = 64;
 /// a sphere is one scalar test a ray, and the tree of a scene with spheres skips most of the
 /// primitives a flat loop tests (counted in docs/performance.md §1, "Tiny scenes with spheres").
 const FLAT_SPHERES_MAX: usize = 4;
+/// Largest number of triangles beside spheres traced with the flat loop (see above).
 const FLAT_MAX_WITH_SPHERES: usize = 32;
 
 /// A packet of the flat loop of tiny scenes, with its normals stored: there the data stay in
@@ -112,14 +113,15 @@ impl Flat {
 }
 
 impl Accel {
-    /// Closest hit over the flat blocks, then the spheres ([`Flat`]). The ray
+    /// Closest hit over the flat blocks, then, if `SPHERES`, the spheres ([`Flat`]; a scene
+    /// without them does not pay for their loop, 5 % of cornell-box's instructions). The ray
     /// comes in registers, not behind a reference: loaded whole from a ray its caller has just
     /// stored piece by piece, it would wait for the stores to complete (a failed store-to-load
     /// forward; pt-hero on cornell-box ran 4–6 % slower that way).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn intersect_flat(
+    pub(super) fn intersect_flat<const SPHERES: bool>(
         &self,
         ox: f32,
         oy: f32,
@@ -151,6 +153,9 @@ impl Accel {
                 }
             }
         }
+        if !SPHERES {
+            return best;
+        }
         let (o, d) = (Vec3A::from_array(o), Vec3A::from_array(d));
         self.flat.nearest_sphere(o, d, best, t_best)
     }
@@ -164,7 +169,12 @@ impl Accel {
     /// whatever the signature.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1")]
-    fn intersect_flat_lanes(&self, o: [f32; 3], d: [f32; 3], t_max: f32) -> Option<Hit> {
+    fn intersect_flat_lanes<const SPHERES: bool>(
+        &self,
+        o: [f32; 3],
+        d: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
         use std::arch::x86_64::*;
         let mut bt = _mm256_set1_ps(t_max);
         let (mut bu, mut bv) = (_mm256_setzero_ps(), _mm256_setzero_ps());
@@ -187,7 +197,11 @@ impl Accel {
         let t_best = _mm256_cvtss_f32(m);
         let (ov, dv) = (Vec3A::from_array(o), Vec3A::from_array(d));
         if !(t_best < t_max) {
-            return self.flat.nearest_sphere(ov, dv, None, t_max);
+            return if SPHERES {
+                self.flat.nearest_sphere(ov, dv, None, t_max)
+            } else {
+                None
+            };
         }
         let mut near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(bt, m)) as u32;
         let (mut uv, mut ks) = ([[0.0f32; 8]; 2], [0u32; 8]);
@@ -212,7 +226,11 @@ impl Accel {
             u: uv[0][lane],
             v: uv[1][lane],
         };
-        self.flat.nearest_sphere(ov, dv, Some(hit), t_best)
+        if SPHERES {
+            self.flat.nearest_sphere(ov, dv, Some(hit), t_best)
+        } else {
+            Some(hit)
+        }
     }
 
     /// Any hit over the flat blocks and the spheres, the ray in registers as for
@@ -220,7 +238,7 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1")]
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn occluded_flat(
+    pub(super) fn occluded_flat<const SPHERES: bool>(
         &self,
         ox: f32,
         oy: f32,
@@ -235,9 +253,10 @@ impl Accel {
             .blocks
             .iter()
             .any(|blk| Self::flat_block(&blk.tri, Some(&blk.n), o, d, t_max, None) != 0)
-            || self
-                .flat
-                .any_sphere(Vec3A::from_array(o), Vec3A::from_array(d), t_max)
+            || (SPHERES
+                && self
+                    .flat
+                    .any_sphere(Vec3A::from_array(o), Vec3A::from_array(d), t_max))
     }
 
     ray_entry!(
@@ -249,7 +268,17 @@ impl Accel {
         "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1",
         Option<Hit>,
         |a, ray, t_max| {
-            a.intersect_flat_lanes(ray.o.to_array(), ray.d.to_array(), t_max)
+            a.intersect_flat_lanes::<false>(ray.o.to_array(), ray.d.to_array(), t_max)
+        }
+    );
+
+    ray_entry!(
+        /// [`Self::intersect_flat_avx512`] for a scene with spheres.
+        intersect_flat_spheres_avx512,
+        "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1",
+        Option<Hit>,
+        |a, ray, t_max| {
+            a.intersect_flat_lanes::<true>(ray.o.to_array(), ray.d.to_array(), t_max)
         }
     );
 
@@ -260,7 +289,18 @@ impl Accel {
         bool,
         |a, ray, t_max| {
             let (o, d) = (ray.o, ray.d);
-            a.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            a.occluded_flat::<false>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+        }
+    );
+
+    ray_entry!(
+        /// [`Self::occluded_flat_avx512`] for a scene with spheres.
+        occluded_flat_spheres_avx512,
+        "avx512f,avx512vl,avx512dq,avx2,fma,popcnt,bmi1",
+        bool,
+        |a, ray, t_max| {
+            let (o, d) = (ray.o, ray.d);
+            a.occluded_flat::<true>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
         }
     );
 }

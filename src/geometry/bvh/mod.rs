@@ -235,17 +235,22 @@ enum Kernel {
     Portable,
     Avx2Tree,
     Avx2Flat,
+    Avx2FlatSpheres,
     Avx512Tree,
     Avx512Flat,
+    Avx512FlatSpheres,
 }
 
 impl Kernel {
     fn of(a: &Accel) -> Kernel {
         let flat = a.flat.on;
+        let spheres = a.n_spheres > 0;
         match a.isa {
             _ if a.nodes.is_empty() => Kernel::Empty,
+            Isa::Avx512 if flat && spheres => Kernel::Avx512FlatSpheres,
             Isa::Avx512 if flat => Kernel::Avx512Flat,
             Isa::Avx512 => Kernel::Avx512Tree,
+            Isa::Avx2 if flat && spheres => Kernel::Avx2FlatSpheres,
             Isa::Avx2 if flat => Kernel::Avx2Flat,
             Isa::Avx2 => Kernel::Avx2Tree,
             Isa::Portable => Kernel::Portable,
@@ -378,9 +383,19 @@ impl Accel {
                 self.intersect_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
             },
             #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512FlatSpheres => unsafe {
+                self.intersect_flat_spheres_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
             Kernel::Avx2Tree => unsafe { self.intersect_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2Flat => unsafe { self.intersect_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            Kernel::Avx2Flat => unsafe {
+                self.intersect_flat::<false>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2FlatSpheres => unsafe {
+                self.intersect_flat::<true>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
             _ => self.intersect_portable(ray, t_max),
         }
     }
@@ -405,9 +420,19 @@ impl Accel {
                 self.occluded_flat_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
             },
             #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512FlatSpheres => unsafe {
+                self.occluded_flat_spheres_avx512(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
             Kernel::Avx2Tree => unsafe { self.occluded_avx2(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2Flat => unsafe { self.occluded_flat(o.x, o.y, o.z, d.x, d.y, d.z, t_max) },
+            Kernel::Avx2Flat => unsafe {
+                self.occluded_flat::<false>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2FlatSpheres => unsafe {
+                self.occluded_flat::<true>(o.x, o.y, o.z, d.x, d.y, d.z, t_max)
+            },
             _ => self.occluded_portable(ray, t_max),
         }
     }
